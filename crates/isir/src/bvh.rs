@@ -1,0 +1,651 @@
+//! Bounding volume hierarchy over boxes (TP4 exercise 3): the course's midpoint build and
+//! a binned SAH build (MacDonald, Booth 1990; Wald, "On fast construction of SAH-based
+//! BVHs", 2007) that uses every core.
+//!
+//! The BVH knows nothing about triangles: it is built from one box per primitive and
+//! traversed with a closure that intersects a primitive. It is a flat array of 32-byte
+//! [`BvhNode`]s (tinybvh's layout) with `u32` indices; the two children of a node are
+//! adjacent. This is the canonical build format; [`crate::wide`] converts it to the
+//! SIMD layout used by the default acceleration.
+
+use crate::aabb::Aabb;
+use crate::ray::Ray;
+use glam::Vec3;
+
+/// One node: a box, and either two children (`count == 0`, children at `left_first` and
+/// `left_first + 1`) or a leaf (`count > 0` primitives from `left_first` in
+/// [`Bvh::prim_indices`]).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct BvhNode {
+    /// Lower corner of the box.
+    pub min: [f32; 3],
+    /// First child (interior) or first primitive slot (leaf).
+    pub left_first: u32,
+    /// Upper corner of the box.
+    pub max: [f32; 3],
+    /// Number of primitives; 0 for an interior node.
+    pub count: u32,
+}
+
+const _: () = assert!(std::mem::size_of::<BvhNode>() == 32);
+
+impl BvhNode {
+    /// The node's box.
+    #[inline]
+    #[must_use]
+    pub fn aabb(&self) -> Aabb {
+        Aabb::new(Vec3::from(self.min), Vec3::from(self.max))
+    }
+
+    /// True for a leaf.
+    #[inline]
+    #[must_use]
+    pub fn is_leaf(&self) -> bool {
+        self.count > 0
+    }
+
+    fn leaf(b: &Aabb, first: u32, count: u32) -> Self {
+        Self {
+            min: b.min.into(),
+            left_first: first,
+            max: b.max.into(),
+            count,
+        }
+    }
+
+    fn interior(b: &Aabb, first_child: u32) -> Self {
+        Self {
+            min: b.min.into(),
+            left_first: first_child,
+            max: b.max.into(),
+            count: 0,
+        }
+    }
+}
+
+/// How to build.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BvhQuality {
+    /// The course's build: split the node's box at the middle of its largest axis
+    /// (primitives partitioned by centroid), at most 8 primitives per leaf, depth 32.
+    Midpoint,
+    /// Binned surface area heuristic (32 bins on each axis), leaves of up to 8.
+    Sah,
+}
+
+/// Traversal cost relative to one primitive test, in the SAH.
+pub const SAH_TRAVERSAL_COST: f32 = 1.0;
+/// Primitive test cost, in the SAH.
+pub const SAH_INTERSECTION_COST: f32 = 1.0;
+
+/// Midpoint build: at most this many primitives per leaf (the course's `maxTrianglesPerLeaf`).
+pub const MIDPOINT_MAX_LEAF: usize = 8;
+/// Midpoint build: maximum depth (the course's `maxDepth`).
+pub const MIDPOINT_MAX_DEPTH: u32 = 32;
+/// SAH build: leaves never hold more than this many primitives.
+pub const SAH_MAX_LEAF: usize = 8;
+const SAH_BINS: usize = 32;
+/// Below this depth SAH splits may be as unbalanced as they like; deeper, nodes are split
+/// at the median so that traversal stacks stay bounded.
+const SAH_MAX_DEPTH: u32 = 48;
+/// Traversal stacks hold this many entries: the deepest tree is
+/// `SAH_MAX_DEPTH` + 32 median splits.
+pub const STACK_SIZE: usize = 96;
+/// Subtrees with more primitives than this are built in parallel.
+const PARALLEL_THRESHOLD: usize = 4096;
+/// Nodes with more primitives than this are binned in parallel.
+const PARALLEL_BINNING: usize = 65536;
+
+/// A BVH: flat nodes (root at 0) and the primitive order its leaves index.
+#[derive(Clone, Debug, Default)]
+pub struct Bvh {
+    /// The nodes, root first.
+    pub nodes: Vec<BvhNode>,
+    /// Leaves refer to `prim_indices[left_first .. left_first + count]`.
+    pub prim_indices: Vec<u32>,
+}
+
+struct BuildInput<'a> {
+    boxes: &'a [Aabb],
+    centroids: Vec<Vec3>,
+}
+
+impl Bvh {
+    /// Build over one box per primitive. Primitives whose box is empty or not finite
+    /// (degenerate input) are left out, so traversal never reports them.
+    #[must_use]
+    pub fn build(boxes: &[Aabb], quality: BvhQuality) -> Bvh {
+        let mut indices: Vec<u32> = (0..boxes.len() as u32)
+            .filter(|&i| {
+                let b = &boxes[i as usize];
+                !b.is_empty() && b.min.is_finite() && b.max.is_finite()
+            })
+            .collect();
+        if indices.is_empty() {
+            return Bvh::default();
+        }
+        let input = BuildInput {
+            boxes,
+            centroids: boxes.iter().map(Aabb::centroid).collect(),
+        };
+        let nodes = match quality {
+            BvhQuality::Midpoint => {
+                let mut nodes = vec![BvhNode::default()];
+                build_midpoint(&input, &mut nodes, 0, &mut indices, 0, 0);
+                nodes
+            }
+            BvhQuality::Sah => build_sah_parallel(&input, &mut indices, 0, 0),
+        };
+        Bvh {
+            nodes,
+            prim_indices: indices,
+        }
+    }
+
+    /// The root's box (empty for an empty BVH).
+    #[must_use]
+    pub fn bounds(&self) -> Aabb {
+        self.nodes.first().map_or(Aabb::EMPTY, BvhNode::aabb)
+    }
+
+    /// Expected cost of a random ray under the SAH: traversal steps plus primitive tests,
+    /// weighted by the probability of reaching each node (area ratio to the root).
+    #[must_use]
+    pub fn sah_cost(&self) -> f32 {
+        let root = self.bounds().half_area();
+        if root <= 0.0 {
+            return 0.0;
+        }
+        self.nodes
+            .iter()
+            .map(|n| {
+                let p = n.aabb().half_area() / root;
+                if n.is_leaf() {
+                    p * n.count as f32 * SAH_INTERSECTION_COST
+                } else {
+                    p * SAH_TRAVERSAL_COST
+                }
+            })
+            .sum()
+    }
+
+    /// Depth of the deepest leaf (the root alone is depth 0).
+    #[must_use]
+    pub fn depth(&self) -> u32 {
+        fn rec(nodes: &[BvhNode], i: usize) -> u32 {
+            let n = &nodes[i];
+            if n.is_leaf() {
+                0
+            } else {
+                let c = n.left_first as usize;
+                1 + rec(nodes, c).max(rec(nodes, c + 1))
+            }
+        }
+        if self.nodes.is_empty() {
+            0
+        } else {
+            rec(&self.nodes, 0)
+        }
+    }
+
+    /// Closest-hit traversal, near child first. `hit_prim(prim, t_max)` intersects one
+    /// primitive and returns its `t` when it is in `[t_min, t_max)`; the returned value
+    /// becomes the new `t_max`. Returns the final `t_max`.
+    #[inline]
+    pub fn intersect<F: FnMut(u32, f32) -> Option<f32>>(&self, ray: &Ray, t_min: f32, mut t_max: f32, mut hit_prim: F) -> f32 {
+        self.walk(ray, t_min, &mut t_max, |prim, t_max| {
+            if let Some(t) = hit_prim(prim, *t_max) {
+                *t_max = t;
+            }
+            false
+        });
+        t_max
+    }
+
+    /// Any-hit traversal: true as soon as `hit_prim(prim, t_max)` says a primitive blocks
+    /// the ray.
+    #[inline]
+    pub fn occluded<F: FnMut(u32, f32) -> bool>(&self, ray: &Ray, t_min: f32, t_max: f32, mut hit_prim: F) -> bool {
+        let mut t = t_max;
+        self.walk(ray, t_min, &mut t, |prim, t_max| hit_prim(prim, *t_max))
+    }
+
+    /// The traversal loop shared by both queries; `visit` returns true to stop.
+    #[inline(always)]
+    fn walk<F: FnMut(u32, &mut f32) -> bool>(&self, ray: &Ray, t_min: f32, t_max: &mut f32, mut visit: F) -> bool {
+        if self.nodes.is_empty() || !ray.is_valid() {
+            return false;
+        }
+        let inv = ray.direction.recip();
+        let slab = |n: &BvhNode, t_max: f32| -> Option<f32> {
+            let a = (Vec3::from(n.min) - ray.origin) * inv;
+            let b = (Vec3::from(n.max) - ray.origin) * inv;
+            let t0 = a.min(b).max_element().max(t_min);
+            let t1 = a.max(b).min_element().min(t_max);
+            (t0 <= t1).then_some(t0)
+        };
+        if slab(&self.nodes[0], *t_max).is_none() {
+            return false;
+        }
+        let mut stack = [0u32; STACK_SIZE];
+        let mut sp = 0;
+        let mut node = &self.nodes[0];
+        loop {
+            if node.is_leaf() {
+                let first = node.left_first as usize;
+                for &prim in &self.prim_indices[first..first + node.count as usize] {
+                    if visit(prim, t_max) {
+                        return true;
+                    }
+                }
+            } else {
+                let c = node.left_first as usize;
+                let (l, r) = (&self.nodes[c], &self.nodes[c + 1]);
+                match (slab(l, *t_max), slab(r, *t_max)) {
+                    (Some(tl), Some(tr)) => {
+                        let (near, far) = if tl <= tr { (c, c + 1) } else { (c + 1, c) };
+                        stack[sp] = far as u32;
+                        sp += 1;
+                        node = &self.nodes[near];
+                        continue;
+                    }
+                    (Some(_), None) => {
+                        node = l;
+                        continue;
+                    }
+                    (None, Some(_)) => {
+                        node = r;
+                        continue;
+                    }
+                    (None, None) => {}
+                }
+            }
+            // Pop the next node whose box is still in front of the closest hit.
+            loop {
+                if sp == 0 {
+                    return false;
+                }
+                sp -= 1;
+                let n = &self.nodes[stack[sp] as usize];
+                if slab(n, *t_max).is_some() {
+                    node = n;
+                    break;
+                }
+            }
+        }
+    }
+}
+
+/// Bounds and centroid bounds of a set of primitives.
+fn bounds_of(input: &BuildInput, indices: &[u32]) -> (Aabb, Aabb) {
+    let mut b = Aabb::EMPTY;
+    let mut c = Aabb::EMPTY;
+    for &i in indices {
+        b.extend_aabb(&input.boxes[i as usize]);
+        c.extend(input.centroids[i as usize]);
+    }
+    (b, c)
+}
+
+/// Stable-enough in-place partition: primitives for which `left` holds come first.
+/// Returns how many.
+fn partition(indices: &mut [u32], mut left: impl FnMut(u32) -> bool) -> usize {
+    let mut k = 0;
+    for i in 0..indices.len() {
+        if left(indices[i]) {
+            indices.swap(i, k);
+            k += 1;
+        }
+    }
+    k
+}
+
+/// Split at the median centroid along `axis` (the fallback when a split puts everything
+/// on one side).
+fn median_split(input: &BuildInput, indices: &mut [u32], axis: usize) -> usize {
+    let mid = indices.len() / 2;
+    indices.select_nth_unstable_by(mid, |&a, &b| {
+        input.centroids[a as usize][axis].total_cmp(&input.centroids[b as usize][axis])
+    });
+    mid
+}
+
+// ---- The course's midpoint build ----
+
+fn build_midpoint(input: &BuildInput, nodes: &mut Vec<BvhNode>, slot: usize, indices: &mut [u32], first: u32, depth: u32) {
+    let (bounds, _) = bounds_of(input, indices);
+    let n = indices.len();
+    if n <= MIDPOINT_MAX_LEAF || depth >= MIDPOINT_MAX_DEPTH {
+        nodes[slot] = BvhNode::leaf(&bounds, first, n as u32);
+        return;
+    }
+    let axis = bounds.largest_axis();
+    let middle = bounds.centroid()[axis];
+    let mut k = partition(indices, |i| input.centroids[i as usize][axis] < middle);
+    if k == 0 || k == n {
+        k = median_split(input, indices, axis);
+    }
+    let child = nodes.len();
+    nodes[slot] = BvhNode::interior(&bounds, child as u32);
+    nodes.push(BvhNode::default());
+    nodes.push(BvhNode::default());
+    let (l, r) = indices.split_at_mut(k);
+    build_midpoint(input, nodes, child, l, first, depth + 1);
+    build_midpoint(input, nodes, child + 1, r, first + k as u32, depth + 1);
+}
+
+// ---- Binned SAH build ----
+
+#[derive(Clone, Copy)]
+struct Bin {
+    bounds: Aabb,
+    count: u32,
+}
+
+const EMPTY_BIN: Bin = Bin {
+    bounds: Aabb::EMPTY,
+    count: 0,
+};
+
+type Bins = [[Bin; SAH_BINS]; 3];
+
+fn bin_prims(input: &BuildInput, indices: &[u32], cbounds: &Aabb) -> Bins {
+    let extent = cbounds.diagonal();
+    let scale = Vec3::select(extent.cmpgt(Vec3::ZERO), SAH_BINS as f32 / extent, Vec3::ZERO);
+    let fill = |bins: &mut Bins, chunk: &[u32]| {
+        for &i in chunk {
+            let b = &input.boxes[i as usize];
+            let rel = (input.centroids[i as usize] - cbounds.min) * scale;
+            for axis in 0..3 {
+                let k = (rel[axis] as usize).min(SAH_BINS - 1);
+                let bin = &mut bins[axis][k];
+                bin.bounds.extend_aabb(b);
+                bin.count += 1;
+            }
+        }
+    };
+    if indices.len() < PARALLEL_BINNING {
+        let mut bins = [[EMPTY_BIN; SAH_BINS]; 3];
+        fill(&mut bins, indices);
+        bins
+    } else {
+        use rayon::prelude::*;
+        // Boxes merge by min/max and counts by addition: the result does not depend on
+        // how the work was split, so the build is deterministic.
+        indices
+            .par_chunks(16384)
+            .map(|chunk| {
+                let mut bins = [[EMPTY_BIN; SAH_BINS]; 3];
+                fill(&mut bins, chunk);
+                bins
+            })
+            .reduce(
+                || [[EMPTY_BIN; SAH_BINS]; 3],
+                |mut a, b| {
+                    for axis in 0..3 {
+                        for k in 0..SAH_BINS {
+                            a[axis][k].bounds.extend_aabb(&b[axis][k].bounds);
+                            a[axis][k].count += b[axis][k].count;
+                        }
+                    }
+                    a
+                },
+            )
+    }
+}
+
+/// The best binned split: `(axis, first bin of the right side, cost)`.
+fn best_split(bins: &Bins) -> Option<(usize, usize, f32)> {
+    let mut best: Option<(usize, usize, f32)> = None;
+    for (axis, bins) in bins.iter().enumerate() {
+        // Right-to-left sweep: area × count of the right side of every plane.
+        let mut right_cost = [0.0f32; SAH_BINS];
+        let mut right_count = [0u32; SAH_BINS];
+        let mut acc = EMPTY_BIN;
+        for k in (1..SAH_BINS).rev() {
+            acc.bounds.extend_aabb(&bins[k].bounds);
+            acc.count += bins[k].count;
+            right_cost[k] = acc.bounds.half_area() * acc.count as f32;
+            right_count[k] = acc.count;
+        }
+        let mut left = EMPTY_BIN;
+        for k in 1..SAH_BINS {
+            left.bounds.extend_aabb(&bins[k - 1].bounds);
+            left.count += bins[k - 1].count;
+            if left.count == 0 || right_count[k] == 0 {
+                continue;
+            }
+            let cost = left.bounds.half_area() * left.count as f32 + right_cost[k];
+            if best.is_none_or(|(_, _, c)| cost < c) {
+                best = Some((axis, k, cost));
+            }
+        }
+    }
+    best
+}
+
+/// Decide how to split a node: `None` makes a leaf, `Some(k)` means the first `k`
+/// (after partitioning `indices`) go left.
+fn sah_split(input: &BuildInput, indices: &mut [u32], bounds: &Aabb, cbounds: &Aabb, depth: u32) -> Option<usize> {
+    let n = indices.len();
+    if n <= 1 {
+        return None;
+    }
+    let axis = cbounds.largest_axis();
+    if depth >= SAH_MAX_DEPTH || cbounds.diagonal().max_element() <= 0.0 {
+        // Too deep, or all centroids in one point: binning cannot separate them.
+        return (n > SAH_MAX_LEAF).then(|| median_split(input, indices, axis));
+    }
+    let bins = bin_prims(input, indices, cbounds);
+    let (axis, k, cost) = best_split(&bins)?;
+    let split_cost = SAH_TRAVERSAL_COST + SAH_INTERSECTION_COST * cost / bounds.half_area().max(f32::MIN_POSITIVE);
+    let leaf_cost = SAH_INTERSECTION_COST * n as f32;
+    if n <= SAH_MAX_LEAF && leaf_cost <= split_cost {
+        return None;
+    }
+    let extent = cbounds.diagonal()[axis];
+    let (lo, scale) = (cbounds.min[axis], SAH_BINS as f32 / extent);
+    let mid = partition(indices, |i| {
+        (((input.centroids[i as usize][axis] - lo) * scale) as usize).min(SAH_BINS - 1) < k
+    });
+    if mid == 0 || mid == n {
+        return Some(median_split(input, indices, axis));
+    }
+    Some(mid)
+}
+
+/// Sequential SAH build of the subtree in `slot`, appending its nodes to `nodes`.
+fn build_sah_into(input: &BuildInput, nodes: &mut Vec<BvhNode>, slot: usize, indices: &mut [u32], first: u32, depth: u32) {
+    let (bounds, cbounds) = bounds_of(input, indices);
+    match sah_split(input, indices, &bounds, &cbounds, depth) {
+        None => nodes[slot] = BvhNode::leaf(&bounds, first, indices.len() as u32),
+        Some(k) => {
+            let child = nodes.len();
+            nodes[slot] = BvhNode::interior(&bounds, child as u32);
+            nodes.push(BvhNode::default());
+            nodes.push(BvhNode::default());
+            let (l, r) = indices.split_at_mut(k);
+            build_sah_into(input, nodes, child, l, first, depth + 1);
+            build_sah_into(input, nodes, child + 1, r, first + k as u32, depth + 1);
+        }
+    }
+}
+
+/// Parallel SAH build: large subtrees are built on both cores into separate node arrays,
+/// then laid out as `[root, left root, right root, rest of left, rest of right]`.
+fn build_sah_parallel(input: &BuildInput, indices: &mut [u32], first: u32, depth: u32) -> Vec<BvhNode> {
+    if indices.len() <= PARALLEL_THRESHOLD {
+        let mut nodes = Vec::with_capacity(indices.len() / 2 + 1);
+        nodes.push(BvhNode::default());
+        build_sah_into(input, &mut nodes, 0, indices, first, depth);
+        return nodes;
+    }
+    let (bounds, cbounds) = bounds_of(input, indices);
+    let Some(k) = sah_split(input, indices, &bounds, &cbounds, depth) else {
+        return vec![BvhNode::leaf(&bounds, first, indices.len() as u32)];
+    };
+    let (l, r) = indices.split_at_mut(k);
+    let (left, right) = rayon::join(
+        || build_sah_parallel(input, l, first, depth + 1),
+        || build_sah_parallel(input, r, first + k as u32, depth + 1),
+    );
+    let mut nodes = Vec::with_capacity(1 + left.len() + right.len());
+    nodes.push(BvhNode::interior(&bounds, 1));
+    let left_base = 3u32;
+    let right_base = left_base + left.len() as u32 - 1;
+    let relocate = |n: &BvhNode, base: u32| {
+        let mut n = *n;
+        if !n.is_leaf() {
+            n.left_first = base + n.left_first - 1;
+        }
+        n
+    };
+    nodes.push(relocate(&left[0], left_base));
+    nodes.push(relocate(&right[0], right_base));
+    nodes.extend(left[1..].iter().map(|n| relocate(n, left_base)));
+    nodes.extend(right[1..].iter().map(|n| relocate(n, right_base)));
+    nodes
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+
+    fn random_boxes(n: usize, seed: u64) -> Vec<Aabb> {
+        let mut rng = rand_pcg::Pcg32::seed_from_u64(seed);
+        (0..n)
+            .map(|_| {
+                let c = Vec3::new(
+                    rng.random_range(-10.0..10.0),
+                    rng.random_range(-10.0..10.0),
+                    rng.random_range(-10.0..10.0),
+                );
+                let e = Vec3::new(rng.random_range(0.0..0.5), rng.random_range(0.0..0.5), rng.random_range(0.0..0.5));
+                Aabb::new(c - e, c + e)
+            })
+            .collect()
+    }
+
+    /// Every primitive appears once; every node's box contains its children and primitives.
+    fn check_invariants(bvh: &Bvh, boxes: &[Aabb], expected_prims: usize) {
+        let mut seen = vec![0u32; boxes.len()];
+        for &p in &bvh.prim_indices {
+            seen[p as usize] += 1;
+        }
+        assert_eq!(bvh.prim_indices.len(), expected_prims);
+        assert!(seen.iter().all(|&s| s <= 1));
+        let contains = |outer: &Aabb, inner: &Aabb| outer.min.cmple(inner.min).all() && outer.max.cmpge(inner.max).all();
+        let mut leaves_total = 0;
+        for n in &bvh.nodes {
+            if n.is_leaf() {
+                leaves_total += n.count as usize;
+                for &p in &bvh.prim_indices[n.left_first as usize..(n.left_first + n.count) as usize] {
+                    assert!(contains(&n.aabb(), &boxes[p as usize]));
+                }
+            } else {
+                let c = n.left_first as usize;
+                assert!(c + 1 < bvh.nodes.len());
+                assert!(contains(&n.aabb(), &bvh.nodes[c].aabb()) && contains(&n.aabb(), &bvh.nodes[c + 1].aabb()));
+            }
+        }
+        assert_eq!(leaves_total, expected_prims);
+        assert!(bvh.depth() < STACK_SIZE as u32);
+    }
+
+    #[test]
+    fn builds_are_well_formed() {
+        for n in [1, 2, 9, 100, 5000, 20000] {
+            let boxes = random_boxes(n, n as u64);
+            for q in [BvhQuality::Midpoint, BvhQuality::Sah] {
+                let bvh = Bvh::build(&boxes, q);
+                check_invariants(&bvh, &boxes, n);
+                if q == BvhQuality::Midpoint {
+                    assert!(
+                        bvh.nodes.iter().all(|n| !n.is_leaf() || n.count as usize <= MIDPOINT_MAX_LEAF)
+                            || bvh.depth() >= MIDPOINT_MAX_DEPTH
+                    );
+                } else {
+                    assert!(bvh.nodes.iter().all(|n| !n.is_leaf() || n.count as usize <= SAH_MAX_LEAF));
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn sah_beats_midpoint() {
+        let boxes = random_boxes(20000, 7);
+        let mid = Bvh::build(&boxes, BvhQuality::Midpoint).sah_cost();
+        let sah = Bvh::build(&boxes, BvhQuality::Sah).sah_cost();
+        assert!(sah < mid, "sah {sah} vs midpoint {mid}");
+    }
+
+    #[test]
+    fn degenerate_inputs() {
+        // Empty input, identical boxes, and NaN / empty boxes that must be left out.
+        for q in [BvhQuality::Midpoint, BvhQuality::Sah] {
+            let empty = Bvh::build(&[], q);
+            assert!(empty.nodes.is_empty());
+            let ray = Ray::new(Vec3::ZERO, Vec3::X);
+            assert_eq!(empty.intersect(&ray, 0.0, f32::INFINITY, |_, _| Some(1.0)), f32::INFINITY);
+
+            let same = vec![Aabb::new(Vec3::ZERO, Vec3::ONE); 1000];
+            check_invariants(&Bvh::build(&same, q), &same, 1000);
+
+            let mut mixed = random_boxes(300, 3);
+            mixed[5] = Aabb::new(Vec3::splat(f32::NAN), Vec3::splat(f32::NAN));
+            mixed[6] = Aabb::EMPTY;
+            mixed[7] = Aabb::new(Vec3::ZERO, Vec3::new(f32::INFINITY, 1.0, 1.0));
+            let bvh = Bvh::build(&mixed, q);
+            check_invariants(&bvh, &mixed, 297);
+            assert!(!bvh.prim_indices.contains(&5) && !bvh.prim_indices.contains(&6) && !bvh.prim_indices.contains(&7));
+        }
+    }
+
+    #[test]
+    fn parallel_build_is_deterministic() {
+        let boxes = random_boxes(100_000, 11);
+        let a = Bvh::build(&boxes, BvhQuality::Sah);
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+        let b = pool.install(|| Bvh::build(&boxes, BvhQuality::Sah));
+        assert_eq!(a.nodes, b.nodes);
+        assert_eq!(a.prim_indices, b.prim_indices);
+        check_invariants(&a, &boxes, boxes.len());
+    }
+
+    #[test]
+    fn traversal_finds_the_closest_box_hit() {
+        // Primitives are the boxes themselves: the closest entry distance must match brute force.
+        let boxes = random_boxes(3000, 5);
+        let mut rng = rand_pcg::Pcg32::seed_from_u64(99);
+        for q in [BvhQuality::Midpoint, BvhQuality::Sah] {
+            let bvh = Bvh::build(&boxes, q);
+            for _ in 0..500 {
+                let o = Vec3::new(
+                    rng.random_range(-15.0..15.0),
+                    rng.random_range(-15.0..15.0),
+                    rng.random_range(-15.0..15.0),
+                );
+                let d = Vec3::new(
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(-1.0..1.0),
+                );
+                let ray = Ray::new(o, d);
+                let hit = |p: u32, t_max: f32| {
+                    boxes[p as usize]
+                        .intersect(&ray, 0.0, t_max)
+                        .map(|(t0, _)| t0)
+                        .filter(|&t| t < t_max)
+                };
+                let brute = (0..boxes.len() as u32).fold(f32::INFINITY, |best, p| hit(p, best).unwrap_or(best));
+                assert_eq!(bvh.intersect(&ray, 0.0, f32::INFINITY, hit), brute);
+                assert_eq!(
+                    bvh.occluded(&ray, 0.0, f32::INFINITY, |p, t| hit(p, t).is_some()),
+                    brute.is_finite()
+                );
+            }
+        }
+    }
+}

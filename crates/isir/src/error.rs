@@ -1,0 +1,51 @@
+//! Errors of the library: every user error names the file (and line, where there is one).
+
+use std::path::PathBuf;
+
+/// What can go wrong loading, building or saving.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// A file could not be read or written.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// A mesh file is malformed.
+    #[error("{path}{}: {message}", line.map(|l| format!(":{l}")).unwrap_or_default())]
+    Mesh {
+        /// The file.
+        path: PathBuf,
+        /// The 1-based line, when known.
+        line: Option<usize>,
+        /// What is wrong.
+        message: String,
+    },
+    /// A ray or hit file is malformed.
+    #[error("{path}: {message}")]
+    RayFile {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+    /// No built-in scene has this name.
+    #[error("unknown scene '{0}' (run 'isir scenes' for the list)")]
+    UnknownScene(String),
+    /// A scene description refers to something that does not exist, or is inconsistent.
+    #[error("scene: {0}")]
+    Scene(String),
+    /// An image could not be written.
+    #[error("{path}: {message}")]
+    Image {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        message: String,
+    },
+}
+
+/// `Result` with this crate's [`Error`].
+pub type Result<T> = std::result::Result<T, Error>;

@@ -1,0 +1,290 @@
+//! Triangle mesh (the course's `MeshTriangle` and `TriangleMeshGeometry`): shared arrays
+//! of vertices, normals and uvs, and triangles as index triples into them, so that no
+//! vertex is stored twice. A triangle is its index in [`TriangleMesh::triangles`].
+
+use crate::aabb::Aabb;
+use crate::bvh::{Bvh, BvhQuality};
+use crate::ray::Ray;
+use crate::scene::Accel;
+use crate::triangle::moller_trumbore;
+use crate::wide::WideBvh;
+use glam::{Vec2, Vec3};
+
+/// Which normal shades a hit.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Shading {
+    /// Interpolate the vertex normals with the barycentrics (TP4 question 3, figure 1b);
+    /// the face normal when the mesh has none.
+    #[default]
+    Smooth,
+    /// The face normal `normalize((v1-v0) × (v2-v0))`: facets show (figure 1a).
+    Flat,
+}
+
+/// The acceleration structure of a mesh, one of the four steps of the TP4 lesson.
+#[derive(Clone, Debug, Default)]
+pub enum MeshAccel {
+    /// Every triangle for every ray (the start of TP4).
+    #[default]
+    None,
+    /// The mesh's box first, then every triangle (exercise 2).
+    Aabb,
+    /// A binary BVH over the indexed triangles, as the course builds it (exercise 3).
+    Bvh(Bvh),
+    /// The SAH BVH converted to the wide SIMD layout with triangle data in the leaves.
+    Wide(WideBvh),
+}
+
+/// A closest hit on a mesh: distance, triangle and Möller–Trumbore barycentrics.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MeshHit {
+    /// Ray parameter.
+    pub t: f32,
+    /// Triangle index.
+    pub prim: u32,
+    /// Weight of the triangle's second vertex.
+    pub u: f32,
+    /// Weight of its third vertex.
+    pub v: f32,
+}
+
+/// Figures about a mesh's acceleration structure.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct MeshStats {
+    /// Triangles in the mesh.
+    pub triangles: usize,
+    /// Triangles left out of every query: zero area or non-finite vertices.
+    pub degenerate: usize,
+    /// BVH nodes (0 without a BVH).
+    pub nodes: usize,
+    /// SAH cost of the binary BVH (0 without one).
+    pub sah_cost: f32,
+    /// Bytes of the acceleration structure per triangle.
+    pub bytes_per_triangle: f32,
+}
+
+/// A triangle mesh.
+#[derive(Clone, Debug, Default)]
+pub struct TriangleMesh {
+    /// Vertex positions.
+    pub vertices: Vec<Vec3>,
+    /// Per-vertex normals: empty, or one per vertex.
+    pub normals: Vec<Vec3>,
+    /// Per-vertex texture coordinates: empty, or one per vertex (unused for now).
+    pub uvs: Vec<Vec2>,
+    /// Triangles: three indices into the vertex arrays.
+    pub triangles: Vec<[u32; 3]>,
+    /// Per triangle, which of the object's materials it uses.
+    pub material_slots: Vec<u32>,
+    /// Smooth or flat shading.
+    pub shading: Shading,
+    aabb: Aabb,
+    valid: Vec<bool>,
+    accel: MeshAccel,
+    stats: MeshStats,
+}
+
+impl TriangleMesh {
+    /// A mesh from its arrays. Indices must be in range (the loaders check them);
+    /// `normals` is dropped unless it has one entry per vertex. Degenerate triangles
+    /// (zero area, non-finite vertices) are kept in the numbering but never hit;
+    /// [`MeshStats::degenerate`] counts them.
+    ///
+    /// # Panics
+    /// If a triangle indexes past the vertex array.
+    #[must_use]
+    pub fn new(vertices: Vec<Vec3>, mut normals: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> Self {
+        if normals.len() != vertices.len() {
+            normals.clear();
+        }
+        let n = vertices.len() as u32;
+        assert!(triangles.iter().all(|t| t.iter().all(|&i| i < n)), "triangle index out of range");
+        let mut aabb = Aabb::EMPTY;
+        let valid: Vec<bool> = triangles
+            .iter()
+            .map(|&[a, b, c]| {
+                let (a, b, c) = (vertices[a as usize], vertices[b as usize], vertices[c as usize]);
+                let ok = a.is_finite() && b.is_finite() && c.is_finite() && (b - a).cross(c - a) != Vec3::ZERO;
+                if ok {
+                    aabb.extend(a);
+                    aabb.extend(b);
+                    aabb.extend(c);
+                }
+                ok
+            })
+            .collect();
+        let degenerate = valid.iter().filter(|v| !**v).count();
+        let material_slots = vec![0; triangles.len()];
+        let stats = MeshStats {
+            triangles: triangles.len(),
+            degenerate,
+            ..MeshStats::default()
+        };
+        Self {
+            vertices,
+            normals,
+            uvs: Vec::new(),
+            triangles,
+            material_slots,
+            shading: Shading::Smooth,
+            aabb,
+            valid,
+            accel: MeshAccel::None,
+            stats,
+        }
+    }
+
+    /// The box of the mesh's (valid) triangles.
+    #[must_use]
+    pub fn aabb(&self) -> Aabb {
+        self.aabb
+    }
+
+    /// Figures about the mesh and its acceleration structure.
+    #[must_use]
+    pub fn stats(&self) -> MeshStats {
+        self.stats
+    }
+
+    /// The acceleration structure in use.
+    #[must_use]
+    pub fn accel(&self) -> &MeshAccel {
+        &self.accel
+    }
+
+    /// The three vertices of triangle `prim`.
+    #[inline]
+    #[must_use]
+    pub fn triangle_vertices(&self, prim: u32) -> [Vec3; 3] {
+        let [a, b, c] = self.triangles[prim as usize];
+        [self.vertices[a as usize], self.vertices[b as usize], self.vertices[c as usize]]
+    }
+
+    /// One box per triangle; empty for degenerate triangles, so BVHs leave them out.
+    #[must_use]
+    pub fn triangle_boxes(&self) -> Vec<Aabb> {
+        (0..self.triangles.len() as u32)
+            .map(|i| {
+                if !self.valid[i as usize] {
+                    return Aabb::EMPTY;
+                }
+                let mut b = Aabb::EMPTY;
+                for v in self.triangle_vertices(i) {
+                    b.extend(v);
+                }
+                b
+            })
+            .collect()
+    }
+
+    /// Build the acceleration structure (replacing any previous one).
+    pub fn build_accel(&mut self, accel: Accel) {
+        self.accel = match accel {
+            Accel::None => MeshAccel::None,
+            Accel::Aabb => MeshAccel::Aabb,
+            Accel::BvhMid => MeshAccel::Bvh(Bvh::build(&self.triangle_boxes(), BvhQuality::Midpoint)),
+            Accel::BvhSah => {
+                let bvh = Bvh::build(&self.triangle_boxes(), BvhQuality::Sah);
+                MeshAccel::Wide(WideBvh::from_bvh(&bvh, self))
+            }
+        };
+        let (nodes, sah_cost, bytes) = match &self.accel {
+            MeshAccel::None | MeshAccel::Aabb => (0, 0.0, 0),
+            MeshAccel::Bvh(b) => (b.nodes.len(), b.sah_cost(), b.nodes.len() * 32 + b.prim_indices.len() * 4),
+            MeshAccel::Wide(w) => (w.node_count(), w.sah_cost(), w.bytes()),
+        };
+        self.stats.nodes = nodes;
+        self.stats.sah_cost = sah_cost;
+        self.stats.bytes_per_triangle = bytes as f32 / self.triangles.len().max(1) as f32;
+    }
+
+    /// Möller–Trumbore on triangle `prim`, or `None` for a degenerate one.
+    #[inline]
+    fn hit_triangle(&self, ray: &Ray, prim: u32, t_min: f32, t_max: f32) -> Option<MeshHit> {
+        if !self.valid[prim as usize] {
+            return None;
+        }
+        let [a, b, c] = self.triangle_vertices(prim);
+        moller_trumbore(ray, a, b, c, t_min, t_max).map(|h| MeshHit {
+            t: h.t,
+            prim,
+            u: h.u,
+            v: h.v,
+        })
+    }
+
+    /// Every triangle, in order: the reference the acceleration structures are tested against.
+    #[must_use]
+    pub fn intersect_brute_force(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<MeshHit> {
+        if !ray.is_valid() {
+            return None;
+        }
+        let mut best: Option<MeshHit> = None;
+        for prim in 0..self.triangles.len() as u32 {
+            let limit = best.map_or(t_max, |b| b.t);
+            if let Some(h) = self.hit_triangle(ray, prim, t_min, limit) {
+                best = Some(h);
+            }
+        }
+        best
+    }
+
+    /// The closest hit in `[t_min, t_max)`.
+    #[must_use]
+    pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<MeshHit> {
+        match &self.accel {
+            MeshAccel::None => self.intersect_brute_force(ray, t_min, t_max),
+            MeshAccel::Aabb => {
+                self.aabb.intersect(ray, t_min, t_max)?;
+                self.intersect_brute_force(ray, t_min, t_max)
+            }
+            MeshAccel::Bvh(bvh) => {
+                let mut best = None;
+                bvh.intersect(ray, t_min, t_max, |prim, t_max| {
+                    let h = self.hit_triangle(ray, prim, t_min, t_max)?;
+                    best = Some(h);
+                    Some(h.t)
+                });
+                best
+            }
+            MeshAccel::Wide(w) => w.intersect(ray, t_min, t_max),
+        }
+    }
+
+    /// True when some triangle meets the ray in `[t_min, t_max)` (any-hit query).
+    #[must_use]
+    pub fn occluded(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+        match &self.accel {
+            MeshAccel::None => {
+                ray.is_valid() && (0..self.triangles.len() as u32).any(|p| self.hit_triangle(ray, p, t_min, t_max).is_some())
+            }
+            MeshAccel::Aabb => {
+                ray.is_valid()
+                    && self.aabb.intersect(ray, t_min, t_max).is_some()
+                    && (0..self.triangles.len() as u32).any(|p| self.hit_triangle(ray, p, t_min, t_max).is_some())
+            }
+            MeshAccel::Bvh(bvh) => bvh.occluded(ray, t_min, t_max, |prim, t_max| {
+                self.hit_triangle(ray, prim, t_min, t_max).is_some()
+            }),
+            MeshAccel::Wide(w) => w.occluded(ray, t_min, t_max),
+        }
+    }
+
+    /// The face normal `normalize((v1-v0) × (v2-v0))` of triangle `prim`.
+    #[must_use]
+    pub fn face_normal(&self, prim: u32) -> Vec3 {
+        let [a, b, c] = self.triangle_vertices(prim);
+        (b - a).cross(c - a).normalize_or_zero()
+    }
+
+    /// The shading normal at barycentrics `(u, v)` of triangle `prim` (not yet facing the ray).
+    #[must_use]
+    pub fn shading_normal(&self, prim: u32, u: f32, v: f32) -> Vec3 {
+        if self.shading == Shading::Flat || self.normals.is_empty() {
+            return self.face_normal(prim);
+        }
+        let [a, b, c] = self.triangles[prim as usize];
+        let n = (1.0 - u - v) * self.normals[a as usize] + u * self.normals[b as usize] + v * self.normals[c as usize];
+        n.try_normalize().unwrap_or_else(|| self.face_normal(prim))
+    }
+}

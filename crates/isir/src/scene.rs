@@ -1,0 +1,365 @@
+//! The scene: objects, materials and lights, and the seam between the textbook code and
+//! the fast code: [`Scene::intersect`] (closest hit) and [`Scene::occluded`] (any hit).
+//!
+//! Parse, then build: a [`SceneDescription`] is plain data (the built-in course scenes are
+//! descriptions too); [`SceneDescription::build`] loads meshes and builds their
+//! acceleration structures.
+
+use crate::camera::Camera;
+use crate::color::{Color, GREY, WHITE};
+use crate::error::{Error, Result};
+use crate::geometry::{Geometry, Plane, Shading, Sphere, TriangleMesh};
+use crate::image::Display;
+use crate::integrator::Integrator;
+use crate::light::Light;
+use crate::material::{Material, MaterialId};
+use crate::obj;
+use crate::ray::Ray;
+use glam::Vec3;
+use std::path::PathBuf;
+
+/// How meshes are accelerated: the four steps of the TP4 lesson.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Accel {
+    /// Every triangle for every ray.
+    None,
+    /// The mesh's bounding box first, then every triangle.
+    Aabb,
+    /// The course's BVH: largest-axis midpoint split, 8 triangles per leaf, depth 32.
+    BvhMid,
+    /// Binned SAH BVH in the wide SIMD layout (the default).
+    #[default]
+    BvhSah,
+}
+
+impl Accel {
+    /// Every choice, in lesson order.
+    pub const ALL: [Accel; 4] = [Accel::None, Accel::Aabb, Accel::BvhMid, Accel::BvhSah];
+
+    /// The command-line name.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Accel::None => "none",
+            Accel::Aabb => "aabb",
+            Accel::BvhMid => "bvh-mid",
+            Accel::BvhSah => "bvh-sah",
+        }
+    }
+
+    /// Parse a command-line name.
+    #[must_use]
+    pub fn from_name(s: &str) -> Option<Accel> {
+        Self::ALL.into_iter().find(|a| a.name() == s)
+    }
+}
+
+/// A surface interaction: built once, for the closest hit only.
+#[derive(Clone, Copy, Debug)]
+pub struct Hit {
+    /// Ray parameter.
+    pub t: f32,
+    /// Hit point.
+    pub point: Vec3,
+    /// Shading normal, facing the incoming ray.
+    pub normal: Vec3,
+    /// Geometric normal, facing the incoming ray.
+    pub geometric_normal: Vec3,
+    /// Index of the object.
+    pub object: u32,
+    /// Triangle index within a mesh (0 for other geometries).
+    pub prim: u32,
+    /// Barycentrics on a triangle (0 otherwise).
+    pub u: f32,
+    /// Barycentrics on a triangle (0 otherwise).
+    pub v: f32,
+    /// The material at the hit.
+    pub material: MaterialId,
+}
+
+/// An object: a geometry and the materials of its parts (one, or one per mesh material).
+#[derive(Clone, Debug)]
+pub struct Object {
+    /// Name, as the course names objects.
+    pub name: String,
+    /// Shape.
+    pub geometry: Geometry,
+    /// Materials by slot (meshes have one slot per file material).
+    pub materials: Vec<MaterialId>,
+}
+
+/// A built scene, ready to trace.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    /// Objects.
+    pub objects: Vec<Object>,
+    /// Materials, indexed by [`MaterialId`].
+    pub materials: Vec<Material>,
+    /// Lights.
+    pub lights: Vec<Light>,
+    /// Colour of rays that hit nothing.
+    pub background: Color,
+    /// What loading found odd but could handle (degenerate triangles, missing files of
+    /// materials...), one line each.
+    pub warnings: Vec<String>,
+}
+
+impl Scene {
+    /// The closest hit in `[t_min, t_max)`. Invalid rays (NaN, zero direction) hit nothing.
+    #[must_use]
+    pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
+        if !ray.is_valid() {
+            return None;
+        }
+        // Phase 1: the closest (object, t, prim, u, v), nothing else.
+        let mut best: Option<(usize, f32, u32, f32, f32)> = None;
+        let mut t_best = t_max;
+        for (i, o) in self.objects.iter().enumerate() {
+            let found = match &o.geometry {
+                Geometry::Sphere(s) => s.intersect(ray, t_min, t_best).map(|t| (t, 0, 0.0, 0.0)),
+                Geometry::Plane(p) => p.intersect(ray, t_min, t_best).map(|t| (t, 0, 0.0, 0.0)),
+                Geometry::Mesh(m) => m.intersect(ray, t_min, t_best).map(|h| (h.t, h.prim, h.u, h.v)),
+            };
+            if let Some((t, prim, u, v)) = found {
+                t_best = t;
+                best = Some((i, t, prim, u, v));
+            }
+        }
+        // Phase 2: the surface interaction of that one hit.
+        let (i, t, prim, u, v) = best?;
+        let o = &self.objects[i];
+        let point = ray.at(t);
+        let (normal, geometric, slot) = match &o.geometry {
+            Geometry::Sphere(s) => (s.normal(point), s.normal(point), 0),
+            Geometry::Plane(p) => (p.normal, p.normal, 0),
+            Geometry::Mesh(m) => (
+                m.shading_normal(prim, u, v),
+                m.face_normal(prim),
+                m.material_slots[prim as usize] as usize,
+            ),
+        };
+        let face = |n: Vec3| if ray.direction.dot(n) > 0.0 { -n } else { n };
+        Some(Hit {
+            t,
+            point,
+            normal: face(normal),
+            geometric_normal: face(geometric),
+            object: i as u32,
+            prim,
+            u,
+            v,
+            material: o.materials[slot.min(o.materials.len() - 1)],
+        })
+    }
+
+    /// True when anything meets the ray in `[t_min, t_max)` (the shadow-ray query).
+    #[must_use]
+    pub fn occluded(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+        ray.is_valid()
+            && self.objects.iter().any(|o| match &o.geometry {
+                Geometry::Sphere(s) => s.intersect(ray, t_min, t_max).is_some(),
+                Geometry::Plane(p) => p.intersect(ray, t_min, t_max).is_some(),
+                Geometry::Mesh(m) => m.occluded(ray, t_min, t_max),
+            })
+    }
+
+    /// The material of a hit.
+    #[must_use]
+    pub fn material(&self, hit: &Hit) -> &Material {
+        &self.materials[hit.material as usize]
+    }
+
+    /// The meshes of the scene.
+    pub fn meshes(&self) -> impl Iterator<Item = (&str, &TriangleMesh)> {
+        self.objects.iter().filter_map(|o| match &o.geometry {
+            Geometry::Mesh(m) => Some((o.name.as_str(), m.as_ref())),
+            _ => None,
+        })
+    }
+}
+
+// ---- Descriptions ----
+
+/// Where a camera stands and looks (the aspect ratio comes from the image).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CameraDesc {
+    /// Position.
+    pub position: Vec3,
+    /// The point looked at.
+    pub look_at: Vec3,
+    /// Up vector.
+    pub up: Vec3,
+    /// Vertical field of view, degrees.
+    pub fovy: f32,
+}
+
+impl CameraDesc {
+    /// The course's camera: up = +y, 60° vertical field of view.
+    #[must_use]
+    pub fn new(position: Vec3, look_at: Vec3) -> Self {
+        Self {
+            position,
+            look_at,
+            up: Vec3::Y,
+            fovy: 60.0,
+        }
+    }
+
+    /// The camera for an image of this aspect ratio (width / height).
+    #[must_use]
+    pub fn build(&self, aspect: f32) -> Camera {
+        Camera::new(self.position, self.look_at, self.up, self.fovy, aspect)
+    }
+}
+
+/// Where a mesh comes from.
+#[derive(Clone, Debug, PartialEq)]
+pub enum MeshSource {
+    /// An OBJ file (`.obj` or `.obj.gz`).
+    File(PathBuf),
+    /// A model shipped inside the library (see [`crate::scenes::builtin_model`]).
+    Builtin(&'static str),
+}
+
+/// The shape of an object.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ShapeDesc {
+    /// A sphere.
+    Sphere(Sphere),
+    /// An infinite plane.
+    Plane(Plane),
+    /// A triangle mesh from a file.
+    Mesh {
+        /// The file.
+        source: MeshSource,
+        /// Smooth or flat normals.
+        shading: Shading,
+    },
+}
+
+/// An object of a description.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ObjectDesc {
+    /// Name.
+    pub name: String,
+    /// Shape.
+    pub shape: ShapeDesc,
+    /// Name of a material of the description; `None` keeps a mesh's own materials
+    /// (one ColorMaterial per file material, from `Kd`) or gives the default white.
+    pub material: Option<String>,
+}
+
+/// A scene as plain data, with the settings it is meant to be rendered with.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SceneDescription {
+    /// Name (the built-in scenes are looked up by it).
+    pub name: String,
+    /// One line about it.
+    pub summary: String,
+    /// Camera.
+    pub camera: CameraDesc,
+    /// Named materials.
+    pub materials: Vec<(String, Material)>,
+    /// Objects.
+    pub objects: Vec<ObjectDesc>,
+    /// Lights.
+    pub lights: Vec<Light>,
+    /// Integrator (its light sample count is the default `--light-samples`).
+    pub integrator: Integrator,
+    /// Samples per pixel by default.
+    pub spp: u32,
+    /// How to write 8-bit images.
+    pub display: Display,
+    /// Colour of rays that hit nothing.
+    pub background: Color,
+}
+
+impl SceneDescription {
+    /// An empty description with the course's defaults: grey background, linear-clamp
+    /// display, direct lighting.
+    #[must_use]
+    pub fn new(name: &str, camera: CameraDesc) -> Self {
+        Self {
+            name: name.to_string(),
+            summary: String::new(),
+            camera,
+            materials: Vec::new(),
+            objects: Vec::new(),
+            lights: Vec::new(),
+            integrator: Integrator::DirectLighting { light_samples: 1 },
+            spp: 1,
+            display: Display::LinearClamp,
+            background: GREY,
+        }
+    }
+
+    /// Load meshes and build the scene with acceleration `accel`.
+    ///
+    /// # Errors
+    /// A mesh file that cannot be read or parsed, or a material name that is not defined.
+    pub fn build(&self, accel: Accel) -> Result<Scene> {
+        let mut materials: Vec<Material> = vec![Material::Color(WHITE)]; // the default
+        let mut by_name = std::collections::HashMap::new();
+        for (name, m) in &self.materials {
+            by_name.insert(name.as_str(), materials.len() as MaterialId);
+            materials.push(m.clone());
+        }
+        let lookup = |name: &Option<String>| -> Result<Option<MaterialId>> {
+            match name {
+                None => Ok(None),
+                Some(n) => by_name
+                    .get(n.as_str())
+                    .copied()
+                    .map(Some)
+                    .ok_or_else(|| Error::Scene(format!("object material '{n}' is not defined"))),
+            }
+        };
+        let mut objects = Vec::new();
+        let mut warnings = Vec::new();
+        for desc in &self.objects {
+            let chosen = lookup(&desc.material)?;
+            let (geometry, mats) = match &desc.shape {
+                ShapeDesc::Sphere(s) => (Geometry::Sphere(*s), vec![chosen.unwrap_or(0)]),
+                ShapeDesc::Plane(p) => (Geometry::Plane(*p), vec![chosen.unwrap_or(0)]),
+                ShapeDesc::Mesh { source, shading } => {
+                    let loaded = match source {
+                        MeshSource::File(path) => obj::load_obj(path)?,
+                        MeshSource::Builtin(name) => crate::scenes::load_builtin_model(name)?,
+                    };
+                    warnings.extend(loaded.warnings.iter().map(|w| format!("{}: {w}", desc.name)));
+                    let mut mesh = loaded.mesh;
+                    mesh.shading = *shading;
+                    mesh.build_accel(accel);
+                    let mats = match chosen {
+                        Some(id) => vec![id; loaded.materials.len() + 1],
+                        None => {
+                            let mut ids: Vec<MaterialId> = loaded
+                                .materials
+                                .iter()
+                                .map(|m| {
+                                    materials.push(Material::Color(m.diffuse));
+                                    materials.len() as MaterialId - 1
+                                })
+                                .collect();
+                            ids.push(0); // faces without a material
+                            ids
+                        }
+                    };
+                    (Geometry::Mesh(Box::new(mesh)), mats)
+                }
+            };
+            objects.push(Object {
+                name: desc.name.clone(),
+                geometry,
+                materials: mats,
+            });
+        }
+        Ok(Scene {
+            objects,
+            materials,
+            lights: self.lights.clone(),
+            background: self.background,
+            warnings,
+        })
+    }
+}

@@ -1,0 +1,192 @@
+//! The course's scenes, built in and reproducible by name, and the models they use
+//! (shipped inside the library, so a fresh clone renders them anywhere).
+
+use crate::color::{BLUE, CYAN, GREEN, GREY, MAGENTA, RED, WHITE, YELLOW};
+use crate::error::{Error, Result};
+use crate::geometry::{Plane, Shading};
+use crate::integrator::Integrator;
+use crate::light::Light;
+use crate::material::Material;
+use crate::obj::{self, LoadedMesh};
+use crate::scene::{CameraDesc, MeshSource, ObjectDesc, SceneDescription, ShapeDesc};
+use glam::Vec3;
+use std::path::Path;
+
+/// The models shipped with the library: name, OBJ bytes (gzip when the name of the
+/// original ends in `.gz`), MTL bytes.
+const MODELS: [(&str, &str, &[u8], &[u8]); 3] = [
+    (
+        "uvsphere",
+        "uvsphere.obj",
+        include_bytes!("../data/uvsphere.obj"),
+        include_bytes!("../data/uvsphere.mtl"),
+    ),
+    (
+        "Bunny",
+        "Bunny.obj",
+        include_bytes!("../data/Bunny.obj"),
+        include_bytes!("../data/Bunny.mtl"),
+    ),
+    (
+        "conference",
+        "conference.obj.gz",
+        include_bytes!("../data/conference/conference.obj.gz"),
+        include_bytes!("../data/conference/conference.mtl"),
+    ),
+];
+
+/// Names of the built-in models.
+#[must_use]
+pub fn builtin_models() -> Vec<&'static str> {
+    MODELS.iter().map(|m| m.0).collect()
+}
+
+/// The OBJ text of a built-in model (decompressed), as it would be read from its file.
+///
+/// # Errors
+/// No such model.
+pub fn builtin_model_obj(name: &str) -> Result<Vec<u8>> {
+    let (_, file, bytes, _) = MODELS
+        .iter()
+        .find(|m| m.0 == name)
+        .ok_or_else(|| Error::Scene(format!("no built-in model '{name}'")))?;
+    if file.ends_with(".gz") {
+        obj::gunzip(bytes).map_err(|source| Error::Io { path: file.into(), source })
+    } else {
+        Ok(bytes.to_vec())
+    }
+}
+
+/// Load a built-in model with its material library.
+///
+/// # Errors
+/// No such model.
+pub fn load_builtin_model(name: &str) -> Result<LoadedMesh> {
+    let (_, file, _, mtl) = MODELS
+        .iter()
+        .find(|m| m.0 == name)
+        .ok_or_else(|| Error::Scene(format!("no built-in model '{name}'")))?;
+    let bytes = builtin_model_obj(name)?;
+    obj::parse_obj(Path::new(file), &bytes, |_| Some(mtl.to_vec()))
+}
+
+/// Every built-in scene: `(name, one-line summary)`.
+#[must_use]
+pub fn list() -> Vec<(&'static str, String)> {
+    NAMES
+        .iter()
+        .map(|&n| (n, builtin(n).map(|d| d.summary).unwrap_or_default()))
+        .collect()
+}
+
+const NAMES: [&str; 4] = ["tp4-sphere-flat", "tp4-sphere", "tp4-bunny", "tp4-conference"];
+
+/// The scene rendered when none is named.
+pub const DEFAULT_SCENE: &str = "tp4-bunny";
+
+/// The built-in scene called `name`.
+///
+/// # Errors
+/// [`Error::UnknownScene`] when there is none.
+pub fn builtin(name: &str) -> Result<SceneDescription> {
+    match name {
+        "tp4-sphere-flat" => Ok(tp4_room(
+            name,
+            "uvsphere",
+            Shading::Flat,
+            Vec3::new(0.0, 2.0, -6.0),
+            "TP4 figure 1a: uvsphere.obj with face normals in the room of planes",
+        )),
+        "tp4-sphere" => Ok(tp4_room(
+            name,
+            "uvsphere",
+            Shading::Smooth,
+            Vec3::new(0.0, 2.0, -6.0),
+            "TP4 figure 1b: uvsphere.obj with interpolated normals",
+        )),
+        "tp4-bunny" => Ok(tp4_room(
+            name,
+            "Bunny",
+            Shading::Smooth,
+            Vec3::new(0.0, 2.0, -7.0),
+            "TP4 figure 1c: Bunny.obj (31,599 triangles), camera moved back by 1",
+        )),
+        "tp4-conference" => Ok(tp4_conference()),
+        _ => Err(Error::UnknownScene(name.to_string())),
+    }
+}
+
+/// TP4 Annex A: six coloured infinite planes, a cyan mesh, a point light.
+fn tp4_room(name: &str, model: &'static str, shading: Shading, camera: Vec3, summary: &str) -> SceneDescription {
+    let mut d = SceneDescription::new(name, CameraDesc::new(camera, Vec3::new(0.0, 0.0, 79.0)));
+    d.summary = summary.to_string();
+    for (n, c) in [
+        ("RedColor", RED),
+        ("GreenColor", GREEN),
+        ("BlueColor", BLUE),
+        ("GreyColor", GREY),
+        ("MagentaColor", MAGENTA),
+        ("YellowColor", YELLOW),
+        ("CyanColor", CYAN),
+    ] {
+        d.materials.push((n.to_string(), Material::Color(c)));
+    }
+    d.objects.push(ObjectDesc {
+        name: format!("{model}_defaultobject"),
+        shape: ShapeDesc::Mesh {
+            source: MeshSource::Builtin(model),
+            shading,
+        },
+        material: Some("CyanColor".into()),
+    });
+    let planes = [
+        ("PlaneGround", Vec3::new(0.0, -3.0, 0.0), Vec3::Y, "GreyColor"),
+        ("PlaneLeft", Vec3::new(5.0, 0.0, 0.0), -Vec3::X, "RedColor"),
+        ("PlaneCeiling", Vec3::new(0.0, 7.0, 0.0), -Vec3::Y, "GreenColor"),
+        ("PlaneRight", Vec3::new(-5.0, 0.0, 0.0), Vec3::X, "BlueColor"),
+        ("PlaneFront", Vec3::new(0.0, 0.0, 10.0), -Vec3::Z, "MagentaColor"),
+        ("PlaneRear", Vec3::new(0.0, 0.0, -10.0), Vec3::Z, "YellowColor"),
+    ];
+    for (n, p, normal, m) in planes {
+        d.objects.push(ObjectDesc {
+            name: n.to_string(),
+            shape: ShapeDesc::Plane(Plane::new(p, normal)),
+            material: Some(m.to_string()),
+        });
+    }
+    d.lights.push(Light::Point {
+        position: Vec3::new(0.0, 3.0, -5.0),
+        color: WHITE,
+        power: 100.0,
+    });
+    d.integrator = Integrator::DirectLighting { light_samples: 1 };
+    d.spp = 4;
+    d
+}
+
+/// TP4 figure 2: the conference room under a quad light.
+fn tp4_conference() -> SceneDescription {
+    let mut d = SceneDescription::new(
+        "tp4-conference",
+        CameraDesc::new(Vec3::new(-250.0, 500.0, 330.0), Vec3::new(0.0, 350.0, 100.0)),
+    );
+    d.summary = "TP4 figure 2: conference.obj (331,179 triangles) under a quad light, soft shadows".into();
+    d.objects.push(ObjectDesc {
+        name: "conference".into(),
+        shape: ShapeDesc::Mesh {
+            source: MeshSource::Builtin("conference"),
+            shading: Shading::Smooth,
+        },
+        material: None,
+    });
+    d.lights.push(Light::Quad {
+        corner: Vec3::new(900.0, 600.0, -300.0),
+        u: Vec3::new(-800.0, 0.0, 0.0),
+        v: Vec3::new(0.0, 0.0, 300.0),
+        color: WHITE,
+        power: 20.0,
+    });
+    d.integrator = Integrator::DirectLighting { light_samples: 8 };
+    d.spp = 4;
+    d
+}

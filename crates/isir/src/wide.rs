@@ -1,0 +1,613 @@
+//! Wide BVH: eight children per node tested at once with SIMD, triangles stored
+//! intersection-ready four to a block in the leaves (after Embree's BVH8 + Triangle4
+//! and Fuetterling et al., "Accelerated single ray tracing for wide vector units", 2017).
+//!
+//! Built by collapsing the binary SAH [`Bvh`]: each wide node takes the two children of a
+//! binary node and repeatedly opens the child with the largest surface area until it has
+//! eight. Leaves keep the binary leaves' triangles.
+//!
+//! # Layouts
+//! - [`Node8`] (224 bytes, 32-byte aligned): the eight child boxes as structure of
+//!   arrays (`lo[axis][lane]`, `hi[axis][lane]`) so one AVX load fetches one plane of eight
+//!   boxes, and eight `u32` child codes. Empty lanes hold an inverted box (`+∞..-∞`) that no
+//!   ray enters, so the box test needs no lane mask.
+//! - Child code: an inner node's index, or `LEAF | (blocks - 1) << 28 | first block`.
+//! - [`Tri4`] (160 bytes): four triangles as `v0`, `e1 = v1 - v0`, `e2 = v2 - v0` by
+//!   component, and their triangle numbers. Unused lanes are NaN and never hit.
+//!
+//! # Paths
+//! [`SimdLevel`] picks the code path at run time (`is_x86_feature_detected!`): plain
+//! scalar Rust (the tested fallback, and the only path off x86-64), AVX2+FMA, and the
+//! same kernels compiled for AVX-512. The triangle test computes exactly what
+//! [`crate::triangle::moller_trumbore`] computes, operation for operation, so every path
+//! returns bit-identical distances and barycentrics.
+
+use crate::bvh::{Bvh, BvhNode};
+use crate::geometry::{MeshHit, TriangleMesh};
+use crate::ray::Ray;
+use crate::triangle::moller_trumbore_edges;
+use glam::Vec3;
+
+/// No child in this lane.
+const EMPTY: u32 = u32::MAX;
+/// Set in a child code for a leaf.
+const LEAF: u32 = 1 << 31;
+const BLOCKS_SHIFT: u32 = 28;
+const FIRST_MASK: u32 = (1 << BLOCKS_SHIFT) - 1;
+/// Leaves hold at most this many blocks of four triangles.
+const MAX_BLOCKS: usize = 8;
+/// Traversal stack entries: at most seven pushes per level.
+const STACK_SIZE: usize = 7 * crate::bvh::STACK_SIZE + 8;
+/// Box distances are widened by a few ULPs so that rounding in the box test never culls a
+/// triangle the exact test would hit (the conservative traversal of pbrt and Embree).
+const NEAR_SCALE: f32 = 1.0 - 4.0 * f32::EPSILON;
+const FAR_SCALE: f32 = 1.0 + 4.0 * f32::EPSILON;
+
+/// Eight child boxes (structure of arrays) and their child codes.
+#[repr(C, align(32))]
+#[derive(Clone, Copy, Debug)]
+pub struct Node8 {
+    lo: [[f32; 8]; 3],
+    hi: [[f32; 8]; 3],
+    child: [u32; 8],
+}
+
+const _: () = assert!(std::mem::size_of::<Node8>() == 224);
+
+/// Four triangles ready for Möller–Trumbore, by component.
+#[repr(C, align(16))]
+#[derive(Clone, Copy, Debug)]
+pub struct Tri4 {
+    v0: [[f32; 4]; 3],
+    e1: [[f32; 4]; 3],
+    e2: [[f32; 4]; 3],
+    prim: [u32; 4],
+}
+
+const _: () = assert!(std::mem::size_of::<Tri4>() == 160);
+
+/// Which code path traces rays.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SimdLevel {
+    /// Portable scalar code.
+    Scalar,
+    /// AVX2 and FMA.
+    Avx2,
+    /// AVX-512 (F, VL, DQ, BW) besides AVX2 and FMA.
+    Avx512,
+}
+
+impl SimdLevel {
+    /// Every level this CPU can run, scalar first.
+    #[must_use]
+    pub fn available() -> Vec<SimdLevel> {
+        let mut v = vec![SimdLevel::Scalar];
+        #[cfg(target_arch = "x86_64")]
+        {
+            if is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma") {
+                v.push(SimdLevel::Avx2);
+                if is_x86_feature_detected!("avx512f")
+                    && is_x86_feature_detected!("avx512vl")
+                    && is_x86_feature_detected!("avx512dq")
+                    && is_x86_feature_detected!("avx512bw")
+                {
+                    v.push(SimdLevel::Avx512);
+                }
+            }
+        }
+        v
+    }
+
+    /// The fastest level this CPU can run.
+    #[must_use]
+    pub fn best() -> SimdLevel {
+        *Self::available().last().expect("scalar is always available")
+    }
+
+    /// Lower-case name, as printed by the tools.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            SimdLevel::Scalar => "scalar",
+            SimdLevel::Avx2 => "avx2",
+            SimdLevel::Avx512 => "avx512",
+        }
+    }
+}
+
+/// Counters of a traversal, for tree-quality figures (`isir trace`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TraversalStats {
+    /// Wide nodes whose eight boxes were tested.
+    pub nodes: u64,
+    /// Triangle lanes tested (four per block, padding included).
+    pub triangles: u64,
+}
+
+/// The wide BVH of a mesh.
+#[derive(Clone, Debug)]
+pub struct WideBvh {
+    nodes: Vec<Node8>,
+    tris: Vec<Tri4>,
+    root: u32,
+    sah_cost: f32,
+    level: SimdLevel,
+}
+
+impl WideBvh {
+    /// Collapse a binary BVH over `mesh`'s triangles.
+    #[must_use]
+    pub fn from_bvh(bvh: &Bvh, mesh: &TriangleMesh) -> WideBvh {
+        let mut w = WideBvh {
+            nodes: Vec::new(),
+            tris: Vec::new(),
+            root: EMPTY,
+            sah_cost: bvh.sah_cost(),
+            level: SimdLevel::best(),
+        };
+        if !bvh.nodes.is_empty() {
+            w.nodes.reserve(bvh.nodes.len() / 4 + 1);
+            w.tris.reserve(bvh.prim_indices.len() / 3 + 1);
+            w.root = w.convert(bvh, mesh, 0);
+        }
+        w
+    }
+
+    /// Number of wide nodes.
+    #[must_use]
+    pub fn node_count(&self) -> usize {
+        self.nodes.len()
+    }
+
+    /// SAH cost of the binary BVH it was built from.
+    #[must_use]
+    pub fn sah_cost(&self) -> f32 {
+        self.sah_cost
+    }
+
+    /// Bytes of nodes and triangle blocks.
+    #[must_use]
+    pub fn bytes(&self) -> usize {
+        self.nodes.len() * std::mem::size_of::<Node8>() + self.tris.len() * std::mem::size_of::<Tri4>()
+    }
+
+    /// The code path in use.
+    #[must_use]
+    pub fn level(&self) -> SimdLevel {
+        self.level
+    }
+
+    /// Choose the code path.
+    ///
+    /// # Panics
+    /// If this CPU cannot run `level`.
+    pub fn set_level(&mut self, level: SimdLevel) {
+        assert!(SimdLevel::available().contains(&level), "{level:?} is not available on this CPU");
+        self.level = level;
+    }
+
+    fn convert(&mut self, bvh: &Bvh, mesh: &TriangleMesh, index: usize) -> u32 {
+        let node = &bvh.nodes[index];
+        if node.is_leaf() {
+            return self.make_leaf(bvh, mesh, node);
+        }
+        // Open the largest interior child until there are eight.
+        let mut kids: Vec<usize> = vec![node.left_first as usize, node.left_first as usize + 1];
+        while kids.len() < 8 {
+            let open = kids
+                .iter()
+                .enumerate()
+                .filter(|(_, &k)| !bvh.nodes[k].is_leaf())
+                .max_by(|a, b| bvh.nodes[*a.1].aabb().half_area().total_cmp(&bvh.nodes[*b.1].aabb().half_area()))
+                .map(|(i, _)| i);
+            let Some(i) = open else { break };
+            let c = bvh.nodes[kids[i]].left_first as usize;
+            kids[i] = c;
+            kids.push(c + 1);
+        }
+        let slot = self.nodes.len();
+        self.nodes.push(Node8 {
+            lo: [[f32::INFINITY; 8]; 3],
+            hi: [[f32::NEG_INFINITY; 8]; 3],
+            child: [EMPTY; 8],
+        });
+        for (lane, &k) in kids.iter().enumerate() {
+            let code = self.convert(bvh, mesh, k);
+            let b = bvh.nodes[k].aabb();
+            let n = &mut self.nodes[slot];
+            for axis in 0..3 {
+                n.lo[axis][lane] = b.min[axis];
+                n.hi[axis][lane] = b.max[axis];
+            }
+            n.child[lane] = code;
+        }
+        slot as u32
+    }
+
+    fn make_leaf(&mut self, bvh: &Bvh, mesh: &TriangleMesh, node: &BvhNode) -> u32 {
+        let prims = &bvh.prim_indices[node.left_first as usize..(node.left_first + node.count) as usize];
+        let first = self.tris.len() as u32;
+        let blocks = prims.len().div_ceil(4);
+        assert!(blocks <= MAX_BLOCKS && first <= FIRST_MASK, "leaf too large for the wide layout");
+        for chunk in prims.chunks(4) {
+            let mut t = Tri4 {
+                v0: [[f32::NAN; 4]; 3],
+                e1: [[f32::NAN; 4]; 3],
+                e2: [[f32::NAN; 4]; 3],
+                prim: [EMPTY; 4],
+            };
+            for (lane, &p) in chunk.iter().enumerate() {
+                let [a, b, c] = mesh.triangle_vertices(p);
+                // The same subtractions as `moller_trumbore`, so results are bit-identical.
+                let (e1, e2) = (b - a, c - a);
+                for axis in 0..3 {
+                    t.v0[axis][lane] = a[axis];
+                    t.e1[axis][lane] = e1[axis];
+                    t.e2[axis][lane] = e2[axis];
+                }
+                t.prim[lane] = p;
+            }
+            self.tris.push(t);
+        }
+        LEAF | ((blocks as u32 - 1) << BLOCKS_SHIFT) | first
+    }
+
+    /// The closest hit in `[t_min, t_max)`.
+    #[must_use]
+    pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<MeshHit> {
+        self.intersect_stats::<false>(ray, t_min, t_max, &mut TraversalStats::default())
+    }
+
+    /// True when a triangle meets the ray in `[t_min, t_max)`.
+    #[must_use]
+    pub fn occluded(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+        self.occluded_stats::<false>(ray, t_min, t_max, &mut TraversalStats::default())
+    }
+
+    /// [`Self::intersect`], counting into `stats` when `STATS`.
+    pub fn intersect_stats<const STATS: bool>(&self, ray: &Ray, t_min: f32, t_max: f32, stats: &mut TraversalStats) -> Option<MeshHit> {
+        if self.root == EMPTY || !ray.is_valid() {
+            return None;
+        }
+        match self.level {
+            SimdLevel::Scalar => self.traverse::<false, false, STATS>(ray, t_min, t_max, stats),
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `level` is only ever set to a level `SimdLevel::available` reported.
+            SimdLevel::Avx2 => unsafe { self.traverse_avx2::<false, STATS>(ray, t_min, t_max, stats) },
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: as above.
+            SimdLevel::Avx512 => unsafe { self.traverse_avx512::<false, STATS>(ray, t_min, t_max, stats) },
+            #[cfg(not(target_arch = "x86_64"))]
+            _ => unreachable!(),
+        }
+    }
+
+    /// [`Self::occluded`], counting into `stats` when `STATS`.
+    pub fn occluded_stats<const STATS: bool>(&self, ray: &Ray, t_min: f32, t_max: f32, stats: &mut TraversalStats) -> bool {
+        if self.root == EMPTY || !ray.is_valid() {
+            return false;
+        }
+        let hit = match self.level {
+            SimdLevel::Scalar => self.traverse::<false, true, STATS>(ray, t_min, t_max, stats),
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `level` is only ever set to a level `SimdLevel::available` reported.
+            SimdLevel::Avx2 => unsafe { self.traverse_avx2::<true, STATS>(ray, t_min, t_max, stats) },
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: as above.
+            SimdLevel::Avx512 => unsafe { self.traverse_avx512::<true, STATS>(ray, t_min, t_max, stats) },
+            #[cfg(not(target_arch = "x86_64"))]
+            _ => unreachable!(),
+        };
+        hit.is_some()
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn traverse_avx2<const ANY: bool, const STATS: bool>(
+        &self,
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+        stats: &mut TraversalStats,
+    ) -> Option<MeshHit> {
+        self.traverse::<true, ANY, STATS>(ray, t_min, t_max, stats)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma,avx512f,avx512vl,avx512dq,avx512bw")]
+    unsafe fn traverse_avx512<const ANY: bool, const STATS: bool>(
+        &self,
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+        stats: &mut TraversalStats,
+    ) -> Option<MeshHit> {
+        self.traverse::<true, ANY, STATS>(ray, t_min, t_max, stats)
+    }
+
+    /// The traversal loop. `SIMD` selects the x86 kernels (only inlined into functions
+    /// compiled with AVX2); `ANY` stops at the first hit.
+    #[inline(always)]
+    fn traverse<const SIMD: bool, const ANY: bool, const STATS: bool>(
+        &self,
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+        stats: &mut TraversalStats,
+    ) -> Option<MeshHit> {
+        let pre = RayPre::new(ray);
+        let mut best: Option<MeshHit> = None;
+        let mut t_best = t_max;
+        let mut stack = [(0u32, 0f32); STACK_SIZE];
+        let mut sp = 0usize;
+        let mut cur = self.root;
+        loop {
+            if cur & LEAF == 0 {
+                // ---- Inner node: test eight boxes, visit near to far ----
+                debug_assert!((cur as usize) < self.nodes.len());
+                // SAFETY: child codes are written by `convert` and index `nodes`.
+                let node = unsafe { self.nodes.get_unchecked(cur as usize) };
+                if STATS {
+                    stats.nodes += 1;
+                }
+                let mut dist = [0f32; 8];
+                let mask = if SIMD {
+                    box_test_avx2(node, &pre, t_min, t_best, &mut dist)
+                } else {
+                    box_test_scalar(node, &pre, t_min, t_best, &mut dist)
+                };
+                if mask != 0 {
+                    if mask & (mask - 1) == 0 {
+                        cur = node.child[mask.trailing_zeros() as usize];
+                        continue;
+                    }
+                    // Several hits: push them far to near, continue with the nearest.
+                    let mut order = [(0f32, 0u32); 8];
+                    let mut n = 0;
+                    let mut m = mask;
+                    while m != 0 {
+                        let lane = m.trailing_zeros() as usize;
+                        m &= m - 1;
+                        let item = (dist[lane], node.child[lane]);
+                        // Insertion sort, farthest first.
+                        let mut j = n;
+                        while j > 0 && order[j - 1].0 < item.0 {
+                            order[j] = order[j - 1];
+                            j -= 1;
+                        }
+                        order[j] = item;
+                        n += 1;
+                    }
+                    debug_assert!(sp + n - 1 <= STACK_SIZE);
+                    for &(d, c) in &order[..n - 1] {
+                        // SAFETY: the stack holds seven entries per level of a tree whose
+                        // depth the binary build bounds (see `STACK_SIZE`).
+                        unsafe { *stack.get_unchecked_mut(sp) = (c, d) };
+                        sp += 1;
+                    }
+                    cur = order[n - 1].1;
+                    continue;
+                }
+            } else {
+                // ---- Leaf: blocks of four triangles ----
+                let first = (cur & FIRST_MASK) as usize;
+                let blocks = ((cur >> BLOCKS_SHIFT) & 0x7) as usize + 1;
+                debug_assert!(first + blocks <= self.tris.len());
+                for b in first..first + blocks {
+                    // SAFETY: leaf codes are written by `make_leaf` and index `tris`.
+                    let tri = unsafe { self.tris.get_unchecked(b) };
+                    if STATS {
+                        stats.triangles += 4;
+                    }
+                    let hit = if SIMD {
+                        tri4_sse(tri, &pre, t_min, t_best)
+                    } else {
+                        tri4_scalar(tri, ray, t_min, t_best)
+                    };
+                    if let Some(h) = hit {
+                        if ANY {
+                            return Some(h);
+                        }
+                        t_best = h.t;
+                        best = Some(h);
+                    }
+                }
+            }
+            // ---- Pop the next subtree still in front of the closest hit ----
+            loop {
+                if sp == 0 {
+                    return best;
+                }
+                sp -= 1;
+                // SAFETY: sp < STACK_SIZE.
+                let (c, d) = unsafe { *stack.get_unchecked(sp) };
+                if d < t_best {
+                    cur = c;
+                    break;
+                }
+            }
+        }
+    }
+}
+
+/// What every box and triangle test of one ray shares.
+struct RayPre {
+    origin: Vec3,
+    dir: Vec3,
+    inv: Vec3,
+    /// `origin · inv`, for the FMA form of the slab test.
+    org_inv: Vec3,
+    /// Per axis, whether the direction is negative (then the near plane is `hi`).
+    neg: [bool; 3],
+}
+
+impl RayPre {
+    #[inline(always)]
+    fn new(ray: &Ray) -> Self {
+        // Zero direction components become tiny ones so no slab test computes 0·∞.
+        let safe = |d: f32| if d.abs() < 1e-30 { 1e-30f32.copysign(d) } else { d };
+        let d = ray.direction;
+        let inv = Vec3::new(1.0 / safe(d.x), 1.0 / safe(d.y), 1.0 / safe(d.z));
+        Self {
+            origin: ray.origin,
+            dir: d,
+            inv,
+            org_inv: ray.origin * inv,
+            neg: [inv.x < 0.0, inv.y < 0.0, inv.z < 0.0],
+        }
+    }
+}
+
+#[inline(always)]
+#[allow(clippy::needless_range_loop)] // `lane` indexes six arrays at once
+fn box_test_scalar(node: &Node8, pre: &RayPre, t_min: f32, t_max: f32, dist: &mut [f32; 8]) -> u32 {
+    let mut mask = 0;
+    for lane in 0..8 {
+        let mut near = t_min;
+        let mut far = t_max;
+        for axis in 0..3 {
+            let (n, f) = if pre.neg[axis] {
+                (node.hi[axis][lane], node.lo[axis][lane])
+            } else {
+                (node.lo[axis][lane], node.hi[axis][lane])
+            };
+            near = near.max((n - pre.origin[axis]) * pre.inv[axis]);
+            far = far.min((f - pre.origin[axis]) * pre.inv[axis]);
+        }
+        let near = near * NEAR_SCALE;
+        dist[lane] = near;
+        if near <= far * FAR_SCALE {
+            mask |= 1 << lane;
+        }
+    }
+    mask
+}
+
+#[inline(always)]
+fn tri4_scalar(tri: &Tri4, ray: &Ray, t_min: f32, t_max: f32) -> Option<MeshHit> {
+    let mut best: Option<MeshHit> = None;
+    for lane in 0..4 {
+        if tri.prim[lane] == EMPTY {
+            continue;
+        }
+        let get = |a: &[[f32; 4]; 3]| Vec3::new(a[0][lane], a[1][lane], a[2][lane]);
+        let limit = best.map_or(t_max, |b| b.t);
+        if let Some(h) = moller_trumbore_edges(ray, get(&tri.v0), get(&tri.e1), get(&tri.e2), t_min, limit) {
+            best = Some(MeshHit {
+                t: h.t,
+                prim: tri.prim[lane],
+                u: h.u,
+                v: h.v,
+            });
+        }
+    }
+    best
+}
+
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn box_test_avx2(node: &Node8, pre: &RayPre, t_min: f32, t_max: f32, dist: &mut [f32; 8]) -> u32 {
+    use std::arch::x86_64::*;
+    // SAFETY: only reached from functions compiled with AVX2 and FMA, which the caller
+    // checked the CPU has; `Node8` is 32-byte aligned so the aligned loads are valid.
+    unsafe {
+        let mut near = _mm256_set1_ps(t_min);
+        let mut far = _mm256_set1_ps(t_max);
+        for axis in 0..3 {
+            let (n, f) = if pre.neg[axis] {
+                (&node.hi[axis], &node.lo[axis])
+            } else {
+                (&node.lo[axis], &node.hi[axis])
+            };
+            let inv = _mm256_set1_ps(pre.inv[axis]);
+            let oi = _mm256_set1_ps(pre.org_inv[axis]);
+            let tn = _mm256_fmsub_ps(_mm256_load_ps(n.as_ptr()), inv, oi);
+            let tf = _mm256_fmsub_ps(_mm256_load_ps(f.as_ptr()), inv, oi);
+            near = _mm256_max_ps(near, tn);
+            far = _mm256_min_ps(far, tf);
+        }
+        near = _mm256_mul_ps(near, _mm256_set1_ps(NEAR_SCALE));
+        far = _mm256_mul_ps(far, _mm256_set1_ps(FAR_SCALE));
+        _mm256_storeu_ps(dist.as_mut_ptr(), near);
+        _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, far)) as u32
+    }
+}
+
+#[cfg(not(target_arch = "x86_64"))]
+#[inline(always)]
+fn box_test_avx2(node: &Node8, pre: &RayPre, t_min: f32, t_max: f32, dist: &mut [f32; 8]) -> u32 {
+    box_test_scalar(node, pre, t_min, t_max, dist)
+}
+
+/// Möller–Trumbore on four triangles with SSE, operation for operation as
+/// [`moller_trumbore_edges`].
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn tri4_sse(tri: &Tri4, pre: &RayPre, t_min: f32, t_max: f32) -> Option<MeshHit> {
+    use std::arch::x86_64::*;
+    // SAFETY: SSE is part of x86-64; `Tri4` is 16-byte aligned so the aligned loads are valid.
+    unsafe {
+        let ld = |a: &[f32; 4]| _mm_load_ps(a.as_ptr());
+        let (dx, dy, dz) = (_mm_set1_ps(pre.dir.x), _mm_set1_ps(pre.dir.y), _mm_set1_ps(pre.dir.z));
+        let (e1x, e1y, e1z) = (ld(&tri.e1[0]), ld(&tri.e1[1]), ld(&tri.e1[2]));
+        let (e2x, e2y, e2z) = (ld(&tri.e2[0]), ld(&tri.e2[1]), ld(&tri.e2[2]));
+        let mul = |a, b| _mm_mul_ps(a, b);
+        let sub = |a, b| _mm_sub_ps(a, b);
+        let add = |a, b| _mm_add_ps(a, b);
+        // p = d × e2
+        let px = sub(mul(dy, e2z), mul(dz, e2y));
+        let py = sub(mul(dz, e2x), mul(dx, e2z));
+        let pz = sub(mul(dx, e2y), mul(dy, e2x));
+        let det = add(add(mul(e1x, px), mul(e1y, py)), mul(e1z, pz));
+        let inv = _mm_div_ps(_mm_set1_ps(1.0), det);
+        // s = o - v0
+        let sx = sub(_mm_set1_ps(pre.origin.x), ld(&tri.v0[0]));
+        let sy = sub(_mm_set1_ps(pre.origin.y), ld(&tri.v0[1]));
+        let sz = sub(_mm_set1_ps(pre.origin.z), ld(&tri.v0[2]));
+        let u = mul(add(add(mul(sx, px), mul(sy, py)), mul(sz, pz)), inv);
+        // q = s × e1
+        let qx = sub(mul(sy, e1z), mul(sz, e1y));
+        let qy = sub(mul(sz, e1x), mul(sx, e1z));
+        let qz = sub(mul(sx, e1y), mul(sy, e1x));
+        let v = mul(add(add(mul(dx, qx), mul(dy, qy)), mul(dz, qz)), inv);
+        let t = mul(add(add(mul(e2x, qx), mul(e2y, qy)), mul(e2z, qz)), inv);
+        let zero = _mm_setzero_ps();
+        let one = _mm_set1_ps(1.0);
+        let mut m = _mm_cmpneq_ps(det, zero);
+        m = _mm_and_ps(m, _mm_cmpge_ps(u, zero));
+        m = _mm_and_ps(m, _mm_cmple_ps(u, one));
+        m = _mm_and_ps(m, _mm_cmpge_ps(v, zero));
+        m = _mm_and_ps(m, _mm_cmple_ps(add(u, v), one));
+        m = _mm_and_ps(m, _mm_cmpge_ps(t, _mm_set1_ps(t_min)));
+        m = _mm_and_ps(m, _mm_cmplt_ps(t, _mm_set1_ps(t_max)));
+        let mut mask = _mm_movemask_ps(m) as u32;
+        if mask == 0 {
+            return None;
+        }
+        let (mut ts, mut us, mut vs) = ([0f32; 4], [0f32; 4], [0f32; 4]);
+        _mm_storeu_ps(ts.as_mut_ptr(), t);
+        _mm_storeu_ps(us.as_mut_ptr(), u);
+        _mm_storeu_ps(vs.as_mut_ptr(), v);
+        let mut lane = mask.trailing_zeros() as usize;
+        mask &= mask - 1;
+        while mask != 0 {
+            let l = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            if ts[l] < ts[lane] {
+                lane = l;
+            }
+        }
+        Some(MeshHit {
+            t: ts[lane],
+            prim: tri.prim[lane],
+            u: us[lane],
+            v: vs[lane],
+        })
+    }
+}
+
+#[cfg(not(target_arch = "x86_64"))]
+#[inline(always)]
+fn tri4_sse(tri: &Tri4, pre: &RayPre, t_min: f32, t_max: f32) -> Option<MeshHit> {
+    tri4_scalar(tri, &Ray::new(pre.origin, pre.dir), t_min, t_max)
+}

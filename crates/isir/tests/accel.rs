@@ -1,0 +1,162 @@
+//! Every acceleration structure and every traversal path returns the closest hit that
+//! brute force returns, and agrees with the any-hit query.
+
+use isir::geometry::{MeshAccel, TriangleMesh};
+use isir::sampling::Sampler;
+use isir::wide::SimdLevel;
+use isir::{Accel, Ray, Vec3};
+
+fn bunny() -> TriangleMesh {
+    isir::scenes::load_builtin_model("Bunny").unwrap().mesh
+}
+
+/// Rays from around the mesh towards random points of its box: most hit, some graze.
+fn random_rays(mesh: &TriangleMesh, n: usize, seed: u64) -> Vec<Ray> {
+    let b = mesh.aabb();
+    let (c, r) = (b.centroid(), b.diagonal().length());
+    let mut rng = Sampler::from_seed(seed);
+    let point_in_box = |rng: &mut Sampler| b.min + b.diagonal() * Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+    (0..n)
+        .map(|i| {
+            let target = point_in_box(&mut rng);
+            let origin = if i % 4 == 0 {
+                point_in_box(&mut rng) // inside the box: rays start among the triangles
+            } else {
+                let d = Vec3::new(rng.next_f32() - 0.5, rng.next_f32() - 0.5, rng.next_f32() - 0.5).normalize_or(Vec3::X);
+                c + d * r
+            };
+            Ray::new(origin, target - origin)
+        })
+        .collect()
+}
+
+fn check_mesh(mut mesh: TriangleMesh, rays: &[Ray]) {
+    let reference: Vec<_> = rays.iter().map(|r| mesh.intersect_brute_force(r, 0.0, f32::INFINITY)).collect();
+    let hits = reference.iter().filter(|h| h.is_some()).count();
+    assert!(hits > rays.len() / 4, "the test rays should hit often ({hits} of {})", rays.len());
+    for accel in Accel::ALL {
+        mesh.build_accel(accel);
+        let mut levels = vec![None];
+        if let MeshAccel::Wide(_) = mesh.accel() {
+            levels = SimdLevel::available().into_iter().map(Some).collect();
+        }
+        for level in levels {
+            let label = format!("{} {:?}", accel.name(), level);
+            let mut m = mesh.clone();
+            if let (Some(l), MeshAccel::Wide(w)) = (level, m.accel()) {
+                let mut w = w.clone();
+                w.set_level(l);
+                // Trace through the wide BVH directly at this level.
+                for (ray, want) in rays.iter().zip(&reference) {
+                    let got = w.intersect(ray, 0.0, f32::INFINITY);
+                    same_hit(&got, want, &label, ray);
+                    assert_eq!(
+                        w.occluded(ray, 0.0, f32::INFINITY),
+                        want.is_some(),
+                        "{label}: any-hit disagrees for {ray:?}"
+                    );
+                    if let Some(h) = want {
+                        // Shortened to just before the hit: nothing may block it.
+                        assert!(
+                            !w.occluded(ray, 0.0, h.t * 0.999) || got.is_some_and(|g| g.t < h.t * 0.999),
+                            "{label}"
+                        );
+                    }
+                }
+                continue;
+            }
+            m.build_accel(accel);
+            for (ray, want) in rays.iter().zip(&reference) {
+                let got = m.intersect(ray, 0.0, f32::INFINITY);
+                same_hit(&got, want, &label, ray);
+                assert_eq!(
+                    m.occluded(ray, 0.0, f32::INFINITY),
+                    want.is_some(),
+                    "{label}: any-hit disagrees for {ray:?}"
+                );
+            }
+        }
+    }
+}
+
+/// Same `t` exactly (every path computes Möller–Trumbore the same way) and the same
+/// triangle, unless two triangles are hit at exactly the same distance (a shared edge).
+fn same_hit(got: &Option<isir::geometry::MeshHit>, want: &Option<isir::geometry::MeshHit>, label: &str, ray: &Ray) {
+    match (got, want) {
+        (None, None) => {}
+        (Some(g), Some(w)) => {
+            assert_eq!(g.t, w.t, "{label}: t differs for {ray:?}");
+            if g.prim != w.prim {
+                return; // a tie at the same t
+            }
+            assert_eq!((g.u, g.v), (w.u, w.v), "{label}: barycentrics differ for {ray:?}");
+        }
+        _ => panic!("{label}: {got:?} vs brute force {want:?} for {ray:?}"),
+    }
+}
+
+#[test]
+fn bunny_every_accel_and_path_matches_brute_force() {
+    let mesh = bunny();
+    let rays = random_rays(&mesh, 1500, 1);
+    check_mesh(mesh, &rays);
+}
+
+#[test]
+fn conference_every_accel_matches_brute_force() {
+    // The room is mostly big flat quads and thin chair legs; brute force is slow here so
+    // the ray count is small.
+    let mesh = isir::scenes::load_builtin_model("conference").unwrap().mesh;
+    let rays = random_rays(&mesh, 150, 2);
+    check_mesh(mesh, &rays);
+}
+
+#[test]
+fn degenerate_meshes_and_rays_never_panic_nor_hit_wrongly() {
+    let v = vec![
+        Vec3::ZERO,
+        Vec3::X,
+        Vec3::Y,
+        Vec3::new(2.0, 0.0, 0.0),
+        Vec3::new(f32::NAN, 0.0, 0.0),
+        Vec3::new(0.0, 0.0, f32::INFINITY),
+    ];
+    // Zero-area, collinear, NaN and infinite triangles, and one good one last.
+    let tris = vec![[0, 0, 1], [0, 1, 3], [0, 4, 2], [0, 1, 5], [0, 1, 2]];
+    let bad_rays = [
+        Ray::new(Vec3::new(0.2, 0.2, -1.0), Vec3::ZERO),
+        Ray::new(Vec3::new(0.2, 0.2, -1.0), Vec3::new(f32::NAN, 0.0, 1.0)),
+        Ray::new(Vec3::new(f32::NAN, 0.2, -1.0), Vec3::Z),
+        Ray::new(Vec3::new(0.2, 0.2, -1.0), Vec3::new(0.0, 0.0, f32::INFINITY)),
+    ];
+    let good = Ray::new(Vec3::new(0.2, 0.2, -1.0), Vec3::Z);
+    let on_collinear = Ray::new(Vec3::new(1.5, 0.0, -1.0), Vec3::Z);
+    for accel in Accel::ALL {
+        let mut m = TriangleMesh::new(v.clone(), vec![], tris.clone());
+        assert_eq!(m.stats().degenerate, 4);
+        m.build_accel(accel);
+        for r in &bad_rays {
+            assert_eq!(m.intersect(r, 0.0, f32::INFINITY), None, "{}", accel.name());
+            assert!(!m.occluded(r, 0.0, f32::INFINITY));
+        }
+        let h = m.intersect(&good, 0.0, f32::INFINITY).expect("the good triangle");
+        assert_eq!((h.prim, h.t), (4, 1.0), "{}", accel.name());
+        assert_eq!(m.intersect(&on_collinear, 0.0, f32::INFINITY), None);
+
+        let mut empty = TriangleMesh::new(vec![], vec![], vec![]);
+        empty.build_accel(accel);
+        assert_eq!(empty.intersect(&good, 0.0, f32::INFINITY), None);
+        assert!(!empty.occluded(&good, 0.0, f32::INFINITY));
+    }
+}
+
+#[test]
+fn sah_tree_is_cheaper_than_the_course_midpoint_tree() {
+    let mut mesh = bunny();
+    mesh.build_accel(Accel::BvhMid);
+    let mid = mesh.stats();
+    mesh.build_accel(Accel::BvhSah);
+    let sah = mesh.stats();
+    assert!(sah.sah_cost < mid.sah_cost, "SAH {} vs midpoint {}", sah.sah_cost, mid.sah_cost);
+    assert!(sah.nodes > 0 && mid.nodes > 0);
+}
