@@ -1,7 +1,9 @@
 //! The `isir` command: render the course's scenes, list them, write and trace ray files,
 //! and benchmark the acceleration structures against Embree.
 
+mod bench;
 mod render;
+mod trace;
 
 use clap::{Parser, Subcommand, ValueEnum};
 
@@ -43,6 +45,13 @@ enum Command {
     Render(render::RenderArgs),
     /// List the built-in scenes.
     Scenes,
+    /// Write a ray set of a scene to a ray file (formats/RAYS.md).
+    Rays(trace::RaysArgs),
+    /// Trace a ray file against a mesh and print `key: value` figures.
+    Trace(trace::TraceArgs),
+    /// Build, trace the three ray sets of a scene and print one table (with Embree
+    /// beside it when `embree-bench` is found).
+    Bench(bench::BenchArgs),
 }
 
 /// Where the thread count option leads: the global pool, or a pool of `n` threads.
@@ -73,6 +82,9 @@ fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         None => render::run(render::RenderArgs::default()),
         Some(Command::Render(a)) => render::run(a),
+        Some(Command::Rays(a)) => trace::rays(a),
+        Some(Command::Trace(a)) => trace::trace(a),
+        Some(Command::Bench(a)) => bench::run(a),
         Some(Command::Scenes) => {
             for (name, summary) in isir::scenes::list() {
                 println!("{name:<16} {summary}");

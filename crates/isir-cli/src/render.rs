@@ -95,14 +95,19 @@ fn file_scene(path: &str) -> anyhow::Result<SceneDescription> {
     Ok(d)
 }
 
+/// A built-in scene by name, or a scene around an OBJ file.
+pub fn scene_description(name: &str) -> anyhow::Result<SceneDescription> {
+    match isir::scenes::builtin(name) {
+        Ok(d) => Ok(d),
+        Err(_) if std::path::Path::new(name).exists() || name.ends_with(".obj") || name.ends_with(".gz") => file_scene(name),
+        Err(e) => Err(e.into()),
+    }
+}
+
 pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     anyhow::ensure!(a.width > 0 && a.height > 0, "--width and --height must be at least 1");
     let name = a.scene.clone().unwrap_or_else(|| isir::scenes::DEFAULT_SCENE.to_string());
-    let desc = match isir::scenes::builtin(&name) {
-        Ok(d) => d,
-        Err(_) if std::path::Path::new(&name).exists() || name.ends_with(".obj") || name.ends_with(".gz") => file_scene(&name)?,
-        Err(e) => return Err(e.into()),
-    };
+    let desc = scene_description(&name)?;
     let accel: Accel = a.accel.into();
     let t0 = Instant::now();
     let scene = with_threads(a.threads, || desc.build(accel))??;

@@ -329,3 +329,86 @@ mod tests {
         std::fs::remove_dir_all(&dir).ok();
     }
 }
+
+// ---- Tracing ray sets ----
+
+/// Rays per parallel work item when tracing a ray set (Embree's bench uses 1024 too).
+const CHUNK: usize = 1024;
+
+/// Trace every ray of a set against a mesh on the current rayon pool, writing one record
+/// per ray into `hits` (closest hits, or with `occluded` the any-hit result).
+///
+/// # Panics
+/// If `hits` and `rays` differ in length.
+pub fn trace_mesh(mesh: &crate::TriangleMesh, rays: &[RayRecord], occluded: bool, hits: &mut [HitRecord]) {
+    assert_eq!(rays.len(), hits.len());
+    rays.par_chunks(CHUNK).zip(hits.par_chunks_mut(CHUNK)).for_each(|(rays, hits)| {
+        for (r, h) in rays.iter().zip(hits) {
+            let ray = r.ray();
+            *h = if occluded {
+                if mesh.occluded(&ray, r.t_min, r.t_max) {
+                    HitRecord::OCCLUDED
+                } else {
+                    HitRecord::MISS
+                }
+            } else {
+                mesh.intersect(&ray, r.t_min, r.t_max).map_or(HitRecord::MISS, |m| HitRecord {
+                    t: m.t,
+                    prim: m.prim,
+                    u: m.u,
+                    v: m.v,
+                })
+            };
+        }
+    });
+}
+
+/// How two hit sets of the same rays agree.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct HitAgreement {
+    /// Rays compared.
+    pub rays: usize,
+    /// Rays with the same hit/miss and `t` within the relative tolerance.
+    pub agree: usize,
+    /// Of the rays hit by both, those on the same triangle.
+    pub same_prim: usize,
+    /// Rays hit by both.
+    pub both_hit: usize,
+}
+
+impl HitAgreement {
+    /// Fraction of rays that agree.
+    #[must_use]
+    pub fn fraction(&self) -> f64 {
+        if self.rays == 0 {
+            1.0
+        } else {
+            self.agree as f64 / self.rays as f64
+        }
+    }
+}
+
+/// Compare two hit sets: same hit/miss and `|t_a - t_b| <= rel_tol · max(|t_a|, |t_b|)`.
+#[must_use]
+pub fn compare_hits(a: &[HitRecord], b: &[HitRecord], rel_tol: f32) -> HitAgreement {
+    let mut r = HitAgreement {
+        rays: a.len().min(b.len()),
+        ..Default::default()
+    };
+    for (x, y) in a.iter().zip(b) {
+        match (x.is_hit(), y.is_hit()) {
+            (false, false) => r.agree += 1,
+            (true, true) => {
+                r.both_hit += 1;
+                if (x.t - y.t).abs() <= rel_tol * x.t.abs().max(y.t.abs()) {
+                    r.agree += 1;
+                }
+                if x.prim == y.prim {
+                    r.same_prim += 1;
+                }
+            }
+            _ => {}
+        }
+    }
+    r
+}

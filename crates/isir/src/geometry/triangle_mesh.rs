@@ -198,6 +198,11 @@ impl TriangleMesh {
         self.stats.bytes_per_triangle = bytes as f32 / self.triangles.len().max(1) as f32;
     }
 
+    /// Replace the wide BVH (to trace it at another [`crate::wide::SimdLevel`]).
+    pub fn set_wide(&mut self, wide: WideBvh) {
+        self.accel = MeshAccel::Wide(wide);
+    }
+
     /// Möller–Trumbore on triangle `prim`, or `None` for a degenerate one.
     #[inline]
     fn hit_triangle(&self, ray: &Ray, prim: u32, t_min: f32, t_max: f32) -> Option<MeshHit> {

@@ -1,0 +1,299 @@
+//! `isir bench`: build, generate the three ray sets of a scene, trace them, and print one
+//! table; with `embree-bench` (../shared/tools/embree-bench) found, run it on the same
+//! files in the same run and print the ratio isir / Embree and the hit agreement.
+
+use crate::trace::{trace_set, TraceFigures};
+use crate::{warn_all, with_threads};
+use anyhow::Context;
+use clap::Args;
+use isir::rays::{self, compare_hits, RayKind};
+use isir::scene::{MeshSource, ShapeDesc};
+use isir::Accel;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+#[derive(Args, Debug)]
+pub struct BenchArgs {
+    /// A built-in scene (default tp4-conference) or an OBJ file.
+    pub target: Option<String>,
+    /// The embree-bench binary (default: `embree-bench` on PATH, then
+    /// ~/.cache/isir/embree-bench where its build.sh puts it).
+    #[arg(long)]
+    pub embree: Option<PathBuf>,
+    /// Do not run Embree even when it is found.
+    #[arg(long)]
+    pub no_embree: bool,
+    /// Embree build quality.
+    #[arg(long, default_value = "medium")]
+    pub embree_quality: String,
+    /// Width of the ray sets.
+    #[arg(long, default_value_t = 1200)]
+    pub width: u32,
+    /// Height of the ray sets.
+    #[arg(long, default_value_t = 800)]
+    pub height: u32,
+    /// Best of this many builds (at most 3) and traces.
+    #[arg(long, default_value_t = 5)]
+    pub repeat: u32,
+    /// Threads for both engines (default: one per core).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Seed of the diffuse and shadow rays.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Keep the ray, mesh and hit files in this directory (default: a temporary one).
+    #[arg(long)]
+    pub keep: Option<PathBuf>,
+}
+
+fn find_embree(explicit: &Option<PathBuf>) -> Option<PathBuf> {
+    if let Some(p) = explicit {
+        return Some(p.clone());
+    }
+    if let Ok(path) = std::env::var("PATH") {
+        for dir in std::env::split_paths(&path) {
+            let p = dir.join("embree-bench");
+            if p.is_file() {
+                return Some(p);
+            }
+        }
+    }
+    let home = std::env::var_os("XDG_CACHE_HOME")
+        .map(PathBuf::from)
+        .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache")))?;
+    let p = home.join("isir").join("embree-bench");
+    p.is_file().then_some(p)
+}
+
+/// Run embree-bench and read its `key: value` lines.
+fn run_embree(
+    bin: &Path,
+    mesh: &Path,
+    rays: &Path,
+    hits: &Path,
+    occluded: bool,
+    mode: &str,
+    a: &BenchArgs,
+    threads: usize,
+) -> anyhow::Result<HashMap<String, String>> {
+    let mut cmd = Command::new(bin);
+    cmd.arg(mesh).arg(rays).arg("--hits").arg(hits).args([
+        "--quality",
+        &a.embree_quality,
+        "--repeat",
+        &a.repeat.to_string(),
+        "--threads",
+        &threads.to_string(),
+        "--mode",
+        mode,
+    ]);
+    if occluded {
+        cmd.arg("--occluded");
+    }
+    let out = cmd.output().with_context(|| format!("running {}", bin.display()))?;
+    anyhow::ensure!(
+        out.status.success(),
+        "{} failed: {}",
+        bin.display(),
+        String::from_utf8_lossy(&out.stderr).trim()
+    );
+    Ok(String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .filter_map(|l| l.split_once(": ").map(|(k, v)| (k.to_string(), v.trim().to_string())))
+        .collect())
+}
+
+fn num(m: &HashMap<String, String>, k: &str) -> f64 {
+    m.get(k).and_then(|v| v.parse().ok()).unwrap_or(f64::NAN)
+}
+
+pub fn run(a: BenchArgs) -> anyhow::Result<()> {
+    let name = a.target.clone().unwrap_or_else(|| "tp4-conference".to_string());
+    let desc = crate::render::scene_description(&name)?;
+    let source = desc
+        .objects
+        .iter()
+        .find_map(|o| match &o.shape {
+            ShapeDesc::Mesh { source, .. } => Some(source.clone()),
+            _ => None,
+        })
+        .with_context(|| format!("{name}: the scene has no mesh to benchmark"))?;
+    let dir = a
+        .keep
+        .clone()
+        .unwrap_or_else(|| std::env::temp_dir().join(format!("isir-bench-{}", std::process::id())));
+    std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+
+    // ---- The mesh, as a plain OBJ file Embree can read too ----
+    let (loaded, obj_path) = match &source {
+        MeshSource::Builtin(model) => {
+            let p = dir.join(format!("{model}.obj"));
+            std::fs::write(&p, isir::scenes::builtin_model_obj(model)?).with_context(|| format!("writing {}", p.display()))?;
+            (isir::scenes::load_builtin_model(model)?, p)
+        }
+        MeshSource::File(path) => {
+            let loaded = isir::obj::load_obj(path)?;
+            if path.extension().is_some_and(|e| e == "gz") {
+                let p = dir.join("mesh.obj");
+                std::fs::write(&p, isir::obj::read_file(path)?).with_context(|| format!("writing {}", p.display()))?;
+                (loaded, p)
+            } else {
+                (loaded, path.clone())
+            }
+        }
+    };
+    warn_all(&loaded.warnings);
+
+    // ---- The three ray sets ----
+    let scene = desc.build(Accel::BvhSah)?;
+    let camera = desc.camera.build(a.width as f32 / a.height as f32);
+    let kinds = [
+        ("primary", RayKind::Primary),
+        ("diffuse", RayKind::Diffuse),
+        ("shadow", RayKind::Shadow),
+    ];
+    let mut sets = Vec::new();
+    for (label, kind) in kinds {
+        let set = with_threads(a.threads, || rays::generate(&scene, &camera, a.width, a.height, kind, a.seed))??;
+        let path = dir.join(format!("{label}.rays"));
+        rays::write_rays(&path, &set)?;
+        sets.push((label, kind, set, path));
+    }
+
+    // ---- isir ----
+    let threads = a.threads.unwrap_or_else(rayon::current_num_threads);
+    let mut mesh = loaded.mesh;
+    let mut ours: Vec<TraceFigures> = Vec::new();
+    for (_, kind, set, _) in &sets {
+        let occluded = *kind == RayKind::Shadow;
+        ours.push(with_threads(a.threads, || {
+            trace_set(&mut mesh, set, occluded, Accel::BvhSah, a.repeat, None)
+        })??);
+    }
+    let build_ms = ours.iter().map(|f| f.build_ms).fold(f64::INFINITY, f64::min);
+    let triangles = ours[0].triangles;
+
+    // ---- Embree ----
+    let embree = if a.no_embree { None } else { find_embree(&a.embree) };
+    let mut theirs: Vec<HashMap<String, String>> = Vec::new();
+    let mut stream = None;
+    if let Some(bin) = &embree {
+        for (label, kind, _, path) in &sets {
+            let hits = dir.join(format!("{label}.embree.hits"));
+            theirs.push(run_embree(
+                bin,
+                &obj_path,
+                path,
+                &hits,
+                *kind == RayKind::Shadow,
+                "single",
+                &a,
+                threads,
+            )?);
+        }
+        let hits = dir.join("primary.embree-stream.hits");
+        stream = Some(run_embree(bin, &obj_path, &sets[0].3, &hits, false, "stream", &a, threads)?);
+    }
+
+    // ---- Table ----
+    println!(
+        "isir bench: {name}, {} triangles ({} degenerate), {}x{} rays, {threads} threads, isir simd {}{}",
+        triangles,
+        ours[0].degenerate,
+        a.width,
+        a.height,
+        ours[0].simd,
+        embree
+            .as_ref()
+            .map(|b| format!(", embree-bench {} (quality {})", b.display(), a.embree_quality))
+            .unwrap_or_else(|| ", embree-bench not found".into())
+    );
+    println!(
+        "{:<28} {:>12} {:>12} {:>12} {:>14}",
+        "figure", "isir", "embree", "isir/embree", "hits agree"
+    );
+    let ratio = |ours: f64, theirs: f64| {
+        if theirs.is_finite() && theirs > 0.0 {
+            format!("{:.2}", ours / theirs)
+        } else {
+            "-".into()
+        }
+    };
+    let embree_build = theirs.iter().map(|m| num(m, "build_ms")).fold(f64::INFINITY, f64::min);
+    let embree_build_rate = triangles as f64 / (embree_build * 1e-3) * 1e-6;
+    println!(
+        "{:<28} {:>12.2} {:>12} {:>12} {:>14}",
+        "build (Mtris/s)",
+        triangles as f64 / (build_ms * 1e-3) * 1e-6,
+        if embree_build.is_finite() {
+            format!("{embree_build_rate:.2}")
+        } else {
+            "-".into()
+        },
+        ratio(triangles as f64 / (build_ms * 1e-3) * 1e-6, embree_build_rate),
+        ""
+    );
+    println!(
+        "{:<28} {:>12.2} {:>12} {:>12} {:>14}",
+        "build (ms)",
+        build_ms,
+        if embree_build.is_finite() {
+            format!("{embree_build:.2}")
+        } else {
+            "-".into()
+        },
+        "",
+        ""
+    );
+    for (i, (label, kind, _, _)) in sets.iter().enumerate() {
+        let f = &ours[i];
+        let (e, agree) = match theirs.get(i) {
+            Some(m) => {
+                let hits = rays::read_hits(&dir.join(format!("{label}.embree.hits")))?;
+                let ag = compare_hits(&f.hit_records, &hits, 1e-4);
+                (num(m, "mrays_per_s"), format!("{:.4}%", 100.0 * ag.fraction()))
+            }
+            None => (f64::NAN, "-".into()),
+        };
+        let q = if *kind == RayKind::Shadow { "occluded" } else { "closest" };
+        println!(
+            "{:<28} {:>12.2} {:>12} {:>12} {:>14}",
+            format!("{label} {q} (Mrays/s)"),
+            f.mrays_per_s(),
+            if e.is_finite() { format!("{e:.2}") } else { "-".into() },
+            ratio(f.mrays_per_s(), e),
+            agree
+        );
+    }
+    if let Some(m) = &stream {
+        let e = num(m, "mrays_per_s");
+        println!(
+            "{:<28} {:>12.2} {:>12.2} {:>12} {:>14}",
+            "primary vs embree stream",
+            ours[0].mrays_per_s(),
+            e,
+            ratio(ours[0].mrays_per_s(), e),
+            ""
+        );
+    }
+    println!(
+        "sah_cost: {:.3}  nodes: {}  bytes_per_triangle: {:.1}",
+        ours[0].sah_cost, ours[0].nodes, ours[0].bytes_per_triangle
+    );
+    for (i, (label, _, set, _)) in sets.iter().enumerate() {
+        if let Some((n, t)) = ours[i].visits {
+            println!(
+                "{label}: {} rays, {} hits, {n:.2} node visits and {t:.2} triangle tests per ray",
+                set.len(),
+                ours[i].hits
+            );
+        }
+    }
+    if a.keep.is_none() {
+        std::fs::remove_dir_all(&dir).ok();
+    } else {
+        println!("files kept in {}", dir.display());
+    }
+    Ok(())
+}

@@ -1,0 +1,243 @@
+//! `isir rays` (write a ray set) and `isir trace` (trace a ray file against a mesh).
+
+use crate::{load_mesh, warn_all, with_threads, AccelArg};
+use clap::{Args, ValueEnum};
+use isir::geometry::{MeshAccel, TriangleMesh};
+use isir::rays::{self, HitRecord, RayKind, RayRecord};
+use isir::wide::{SimdLevel, TraversalStats};
+use isir::{Accel, Ray};
+use rayon::prelude::*;
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// A ray set kind.
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum KindArg {
+    /// Through every pixel centre.
+    Primary,
+    /// Cosine-distributed from every primary hit.
+    Diffuse,
+    /// Towards the first light from every primary hit.
+    Shadow,
+}
+
+#[derive(Args, Debug)]
+pub struct RaysArgs {
+    /// A built-in scene (`isir scenes`) or an OBJ file.
+    pub scene: String,
+    /// Which ray set.
+    #[arg(long, value_enum)]
+    pub kind: KindArg,
+    /// Output ray file.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Image width the rays are shot for.
+    #[arg(long, default_value_t = 1200)]
+    pub width: u32,
+    /// Image height.
+    #[arg(long, default_value_t = 800)]
+    pub height: u32,
+    /// Seed of the random directions and light points.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+}
+
+/// Which code path traces (default: the best this CPU has).
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum SimdArg {
+    /// Portable scalar code.
+    Scalar,
+    /// AVX2 + FMA.
+    Avx2,
+    /// AVX-512.
+    Avx512,
+}
+
+#[derive(Args, Debug)]
+pub struct TraceArgs {
+    /// Mesh: an OBJ file (.obj, .obj.gz) or a built-in model (uvsphere, Bunny, conference).
+    pub mesh: PathBuf,
+    /// Ray file (formats/RAYS.md).
+    pub rays: PathBuf,
+    /// Write the hits to this hit file.
+    #[arg(long)]
+    pub hits: Option<PathBuf>,
+    /// Any-hit (shadow) queries instead of closest hits.
+    #[arg(long)]
+    pub occluded: bool,
+    /// Acceleration structure.
+    #[arg(long, value_enum, default_value_t = AccelArg::BvhSah)]
+    pub accel: AccelArg,
+    /// Worker threads (default: one per core).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Time the build and the trace this many times and keep the best.
+    #[arg(long, default_value_t = 5)]
+    pub repeat: u32,
+    /// Code path of the wide BVH (bvh-sah only).
+    #[arg(long, value_enum)]
+    pub simd: Option<SimdArg>,
+}
+
+pub fn rays(a: RaysArgs) -> anyhow::Result<()> {
+    anyhow::ensure!(a.width > 0 && a.height > 0, "--width and --height must be at least 1");
+    let desc = crate::render::scene_description(&a.scene)?;
+    let scene = desc.build(Accel::BvhSah)?;
+    warn_all(&scene.warnings);
+    let kind = match a.kind {
+        KindArg::Primary => RayKind::Primary,
+        KindArg::Diffuse => RayKind::Diffuse,
+        KindArg::Shadow => RayKind::Shadow,
+    };
+    let camera = desc.camera.build(a.width as f32 / a.height as f32);
+    let set = rays::generate(&scene, &camera, a.width, a.height, kind, a.seed)?;
+    rays::write_rays(&a.output, &set)?;
+    println!("rays: {}\nwrote: {}", set.len(), a.output.display());
+    Ok(())
+}
+
+/// Figures of one traced ray set.
+#[derive(Clone, Debug, Default)]
+pub struct TraceFigures {
+    pub triangles: usize,
+    pub degenerate: usize,
+    pub rays: usize,
+    pub hits: usize,
+    pub build_ms: f64,
+    pub trace_ms: f64,
+    pub sah_cost: f32,
+    pub nodes: usize,
+    pub bytes_per_triangle: f32,
+    /// Average (wide) node visits and triangle tests per ray, when the accel counts them.
+    pub visits: Option<(f64, f64)>,
+    pub simd: &'static str,
+    pub hit_records: Vec<HitRecord>,
+}
+
+impl TraceFigures {
+    pub fn mrays_per_s(&self) -> f64 {
+        self.rays as f64 / (self.trace_ms * 1e-3).max(1e-12) * 1e-6
+    }
+
+    pub fn build_mtris_per_s(&self) -> f64 {
+        self.triangles as f64 / (self.build_ms * 1e-3).max(1e-12) * 1e-6
+    }
+}
+
+/// Build `mesh`'s structure (best of `min(repeat, 3)` builds) and trace `rays` (best of
+/// `repeat`) on the current pool.
+pub fn trace_set(
+    mesh: &mut TriangleMesh,
+    rays: &[RayRecord],
+    occluded: bool,
+    accel: Accel,
+    repeat: u32,
+    simd: Option<SimdLevel>,
+) -> anyhow::Result<TraceFigures> {
+    let repeat = repeat.max(1);
+    let mut build_ms = f64::INFINITY;
+    for _ in 0..repeat.min(3) {
+        let t = Instant::now();
+        mesh.build_accel(accel);
+        build_ms = build_ms.min(t.elapsed().as_secs_f64() * 1e3);
+    }
+    let mut level = "n/a";
+    if let MeshAccel::Wide(w) = mesh.accel() {
+        let mut w = w.clone();
+        if let Some(l) = simd {
+            anyhow::ensure!(SimdLevel::available().contains(&l), "--simd {}: this CPU cannot run it", l.name());
+            w.set_level(l);
+        }
+        level = w.level().name();
+        mesh.set_wide(w);
+    } else if simd.is_some() {
+        anyhow::bail!("--simd applies to --accel bvh-sah only");
+    }
+    let mut hits = vec![HitRecord::MISS; rays.len()];
+    let mut trace_ms = f64::INFINITY;
+    for _ in 0..repeat {
+        let t = Instant::now();
+        rays::trace_mesh(mesh, rays, occluded, &mut hits);
+        trace_ms = trace_ms.min(t.elapsed().as_secs_f64() * 1e3);
+    }
+    // Tree-quality counters, in a separate untimed pass.
+    let visits = match mesh.accel() {
+        MeshAccel::Wide(w) => {
+            let total = rays
+                .par_chunks(4096)
+                .map(|chunk| {
+                    let mut s = TraversalStats::default();
+                    for r in chunk {
+                        let ray = Ray::new(r.origin, r.direction);
+                        if occluded {
+                            let _ = w.occluded_stats::<true>(&ray, r.t_min, r.t_max, &mut s);
+                        } else {
+                            let _ = w.intersect_stats::<true>(&ray, r.t_min, r.t_max, &mut s);
+                        }
+                    }
+                    s
+                })
+                .reduce(TraversalStats::default, |a, b| TraversalStats {
+                    nodes: a.nodes + b.nodes,
+                    triangles: a.triangles + b.triangles,
+                });
+            let n = rays.len().max(1) as f64;
+            Some((total.nodes as f64 / n, total.triangles as f64 / n))
+        }
+        _ => None,
+    };
+    let stats = mesh.stats();
+    Ok(TraceFigures {
+        triangles: stats.triangles,
+        degenerate: stats.degenerate,
+        rays: rays.len(),
+        hits: hits.iter().filter(|h| h.is_hit()).count(),
+        build_ms,
+        trace_ms,
+        sah_cost: stats.sah_cost,
+        nodes: stats.nodes,
+        bytes_per_triangle: stats.bytes_per_triangle,
+        visits,
+        simd: level,
+        hit_records: hits,
+    })
+}
+
+pub fn trace(a: TraceArgs) -> anyhow::Result<()> {
+    let loaded = load_mesh(&a.mesh)?;
+    warn_all(&loaded.warnings);
+    let mut mesh = loaded.mesh;
+    let set = rays::read_rays(&a.rays)?;
+    let accel: Accel = a.accel.into();
+    let simd = a.simd.map(|s| match s {
+        SimdArg::Scalar => SimdLevel::Scalar,
+        SimdArg::Avx2 => SimdLevel::Avx2,
+        SimdArg::Avx512 => SimdLevel::Avx512,
+    });
+    let f = with_threads(a.threads, || trace_set(&mut mesh, &set, a.occluded, accel, a.repeat, simd))??;
+    let threads = a.threads.unwrap_or_else(rayon::current_num_threads);
+    println!("engine: isir {}", env!("CARGO_PKG_VERSION"));
+    println!(
+        "threads: {threads}\nmode: {}single\naccel: {}\nsimd: {}",
+        if a.occluded { "occluded-" } else { "" },
+        accel.name(),
+        f.simd
+    );
+    println!(
+        "triangles: {}\ndegenerate_triangles: {}\nrays: {}\nhits: {}",
+        f.triangles, f.degenerate, f.rays, f.hits
+    );
+    println!("build_ms: {:.2}\nbuild_mtris_per_s: {:.2}", f.build_ms, f.build_mtris_per_s());
+    println!("trace_ms: {:.2}\nmrays_per_s: {:.2}", f.trace_ms, f.mrays_per_s());
+    println!(
+        "sah_cost: {:.3}\nnodes: {}\nbytes_per_triangle: {:.1}",
+        f.sah_cost, f.nodes, f.bytes_per_triangle
+    );
+    if let Some((n, t)) = f.visits {
+        println!("avg_node_visits: {n:.2}\navg_triangle_tests: {t:.2}");
+    }
+    if let Some(out) = &a.hits {
+        rays::write_hits(out, &f.hit_records)?;
+    }
+    Ok(())
+}
