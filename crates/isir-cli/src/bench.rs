@@ -69,9 +69,7 @@ fn find_embree(explicit: &Option<PathBuf>) -> Option<PathBuf> {
 /// Run embree-bench and read its `key: value` lines.
 fn run_embree(
     bin: &Path,
-    mesh: &Path,
-    rays: &Path,
-    hits: &Path,
+    [mesh, rays, hits]: [&Path; 3],
     occluded: bool,
     mode: &str,
     a: &BenchArgs,
@@ -193,7 +191,7 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
             )?);
         }
         let hits = dir.join("primary.embree-stream.hits");
-        stream = Some(run_embree(bin, &obj_path, &sets[0].3, &hits, false, "stream", &a, threads)?);
+        stream = Some(run_embree(bin, [&obj_path, &sets[0].3, &hits], false, "stream", &a, threads)?);
     }
 
     // ---- Table ----
