@@ -181,9 +181,7 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
             let hits = dir.join(format!("{label}.embree.hits"));
             theirs.push(run_embree(
                 bin,
-                &obj_path,
-                path,
-                &hits,
+                [&obj_path, path, &hits],
                 *kind == RayKind::Shadow,
                 "single",
                 &a,
