@@ -49,6 +49,9 @@ pub struct RenderArgs {
     /// Seed of the random numbers.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
+    /// Use the watertight ray–triangle test (Woop et al.) instead of Möller–Trumbore.
+    #[arg(long)]
+    pub watertight: bool,
 }
 
 impl Default for RenderArgs {
@@ -64,6 +67,7 @@ impl Default for RenderArgs {
             integrator: None,
             threads: None,
             seed: 0,
+            watertight: false,
         }
     }
 }
@@ -110,7 +114,12 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     let desc = scene_description(&name)?;
     let accel: Accel = a.accel.into();
     let t0 = Instant::now();
-    let scene = with_threads(a.threads, || desc.build(accel))??;
+    let test = if a.watertight {
+        isir::triangle::TriangleTest::Watertight
+    } else {
+        isir::triangle::TriangleTest::MollerTrumbore
+    };
+    let scene = with_threads(a.threads, || desc.build_with(accel, test))??;
     let build_s = t0.elapsed().as_secs_f64();
     warn_all(&scene.warnings);
 

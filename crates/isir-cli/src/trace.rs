@@ -77,6 +77,9 @@ pub struct TraceArgs {
     /// Code path of the wide BVH (bvh-sah only).
     #[arg(long, value_enum)]
     pub simd: Option<SimdArg>,
+    /// Use the watertight ray–triangle test (Woop et al.) instead of Möller–Trumbore.
+    #[arg(long)]
+    pub watertight: bool,
 }
 
 pub fn rays(a: RaysArgs) -> anyhow::Result<()> {
@@ -207,6 +210,9 @@ pub fn trace(a: TraceArgs) -> anyhow::Result<()> {
     let loaded = load_mesh(&a.mesh)?;
     warn_all(&loaded.warnings);
     let mut mesh = loaded.mesh;
+    if a.watertight {
+        mesh.triangle_test = isir::triangle::TriangleTest::Watertight;
+    }
     let set = rays::read_rays(&a.rays)?;
     let accel: Accel = a.accel.into();
     let simd = a.simd.map(|s| match s {
@@ -218,10 +224,11 @@ pub fn trace(a: TraceArgs) -> anyhow::Result<()> {
     let threads = a.threads.unwrap_or_else(rayon::current_num_threads);
     println!("engine: isir {}", env!("CARGO_PKG_VERSION"));
     println!(
-        "threads: {threads}\nmode: {}single\naccel: {}\nsimd: {}",
+        "threads: {threads}\nmode: {}single\naccel: {}\nsimd: {}\ntriangle_test: {:?}",
         if a.occluded { "occluded-" } else { "" },
         accel.name(),
-        f.simd
+        f.simd,
+        mesh.triangle_test
     );
     println!(
         "triangles: {}\ndegenerate_triangles: {}\nrays: {}\nhits: {}",

@@ -15,6 +15,7 @@ use crate::light::Light;
 use crate::material::{Material, MaterialId};
 use crate::obj;
 use crate::ray::Ray;
+use crate::triangle::TriangleTest;
 use glam::Vec3;
 use std::path::PathBuf;
 
@@ -298,6 +299,14 @@ impl SceneDescription {
     /// # Errors
     /// A mesh file that cannot be read or parsed, or a material name that is not defined.
     pub fn build(&self, accel: Accel) -> Result<Scene> {
+        self.build_with(accel, TriangleTest::MollerTrumbore)
+    }
+
+    /// [`Self::build`] with a choice of ray–triangle test for the meshes.
+    ///
+    /// # Errors
+    /// As [`Self::build`].
+    pub fn build_with(&self, accel: Accel, triangle_test: TriangleTest) -> Result<Scene> {
         let mut materials: Vec<Material> = vec![Material::Color(WHITE)]; // the default
         let mut by_name = std::collections::HashMap::new();
         for (name, m) in &self.materials {
@@ -329,6 +338,7 @@ impl SceneDescription {
                     warnings.extend(loaded.warnings.iter().map(|w| format!("{}: {w}", desc.name)));
                     let mut mesh = loaded.mesh;
                     mesh.shading = *shading;
+                    mesh.triangle_test = triangle_test;
                     mesh.build_accel(accel);
                     let mats = match chosen {
                         Some(id) => vec![id; loaded.materials.len() + 1],

@@ -8,6 +8,16 @@
 use crate::ray::Ray;
 use glam::Vec3;
 
+/// Which ray–triangle test a mesh uses.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum TriangleTest {
+    /// Möller–Trumbore (the course's; the fastest).
+    #[default]
+    MollerTrumbore,
+    /// Woop–Benthin–Wald: no ray slips between two triangles sharing an edge.
+    Watertight,
+}
+
 /// Distance and barycentrics of a ray–triangle hit.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TriangleHit {

@@ -25,7 +25,7 @@
 use crate::bvh::{Bvh, BvhNode};
 use crate::geometry::{MeshHit, TriangleMesh};
 use crate::ray::Ray;
-use crate::triangle::moller_trumbore_edges;
+use crate::triangle::{moller_trumbore_edges, TriangleTest, WatertightRay};
 use glam::Vec3;
 
 /// No child in this lane.
@@ -132,6 +132,8 @@ pub struct WideBvh {
     root: u32,
     /// Levels of wide nodes (bounded so the traversal stack cannot overflow).
     depth: usize,
+    /// Blocks hold `v0, v1, v2` for the watertight test instead of `v0, e1, e2`.
+    watertight: bool,
     sah_cost: f32,
     level: SimdLevel,
 }
@@ -145,6 +147,7 @@ impl WideBvh {
             tris: Vec::new(),
             root: EMPTY,
             depth: 0,
+            watertight: mesh.triangle_test == TriangleTest::Watertight,
             sah_cost: bvh.sah_cost(),
             level: SimdLevel::best(),
         };
@@ -248,7 +251,9 @@ impl WideBvh {
             for (lane, &p) in chunk.iter().enumerate() {
                 let [a, b, c] = mesh.triangle_vertices(p);
                 // The same subtractions as `moller_trumbore`, so results are bit-identical.
-                let (e1, e2) = (b - a, c - a);
+                // The watertight test needs the exact vertices instead (the fields then
+                // hold `v1` and `v2`).
+                let (e1, e2) = if self.watertight { (b, c) } else { (b - a, c - a) };
                 for axis in 0..3 {
                     t.v0[axis][lane] = a[axis];
                     t.e1[axis][lane] = e1[axis];
@@ -345,6 +350,7 @@ impl WideBvh {
         stats: &mut TraversalStats,
     ) -> Option<MeshHit> {
         let pre = RayPre::new(ray);
+        let watertight = self.watertight.then(|| WatertightRay::new(ray));
         let mut best: Option<MeshHit> = None;
         let mut t_best = t_max;
         // PERF: not zeroed; zeroing its 5 KB took 10% of the trace time.
@@ -422,7 +428,9 @@ impl WideBvh {
                     if STATS {
                         stats.triangles += 4;
                     }
-                    let hit = if SIMD {
+                    let hit = if let Some(w) = &watertight {
+                        tri4_watertight(tri, w, t_min, t_best)
+                    } else if SIMD {
                         tri4_sse(tri, &pre, t_min, t_best)
                     } else {
                         tri4_scalar(tri, ray, t_min, t_best)
@@ -516,6 +524,28 @@ fn tri4_scalar(tri: &Tri4, ray: &Ray, t_min: f32, t_max: f32) -> Option<MeshHit>
         let get = |a: &[[f32; 4]; 3]| Vec3::new(a[0][lane], a[1][lane], a[2][lane]);
         let limit = best.map_or(t_max, |b| b.t);
         if let Some(h) = moller_trumbore_edges(ray, get(&tri.v0), get(&tri.e1), get(&tri.e2), t_min, limit) {
+            best = Some(MeshHit {
+                t: h.t,
+                prim: tri.prim[lane],
+                u: h.u,
+                v: h.v,
+            });
+        }
+    }
+    best
+}
+
+/// The watertight test on the four triangles of a block built with exact vertices.
+#[inline(always)]
+fn tri4_watertight(tri: &Tri4, w: &WatertightRay, t_min: f32, t_max: f32) -> Option<MeshHit> {
+    let mut best: Option<MeshHit> = None;
+    for lane in 0..4 {
+        if tri.prim[lane] == EMPTY {
+            continue;
+        }
+        let get = |a: &[[f32; 4]; 3]| Vec3::new(a[0][lane], a[1][lane], a[2][lane]);
+        let limit = best.map_or(t_max, |b| b.t);
+        if let Some(h) = w.intersect(get(&tri.v0), get(&tri.e1), get(&tri.e2), t_min, limit) {
             best = Some(MeshHit {
                 t: h.t,
                 prim: tri.prim[lane],

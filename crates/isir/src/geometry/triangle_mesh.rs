@@ -6,7 +6,7 @@ use crate::aabb::Aabb;
 use crate::bvh::{Bvh, BvhQuality};
 use crate::ray::Ray;
 use crate::scene::Accel;
-use crate::triangle::moller_trumbore;
+use crate::triangle::{moller_trumbore, TriangleTest, WatertightRay};
 use crate::wide::WideBvh;
 use glam::{Vec2, Vec3};
 
@@ -78,6 +78,8 @@ pub struct TriangleMesh {
     pub material_slots: Vec<u32>,
     /// Smooth or flat shading.
     pub shading: Shading,
+    /// The ray–triangle test of every query (set before [`Self::build_accel`]).
+    pub triangle_test: TriangleTest,
     aabb: Aabb,
     valid: Vec<bool>,
     accel: MeshAccel,
@@ -127,6 +129,7 @@ impl TriangleMesh {
             triangles,
             material_slots,
             shading: Shading::Smooth,
+            triangle_test: TriangleTest::MollerTrumbore,
             aabb,
             valid,
             accel: MeshAccel::None,
@@ -210,7 +213,11 @@ impl TriangleMesh {
             return None;
         }
         let [a, b, c] = self.triangle_vertices(prim);
-        moller_trumbore(ray, a, b, c, t_min, t_max).map(|h| MeshHit {
+        let hit = match self.triangle_test {
+            TriangleTest::MollerTrumbore => moller_trumbore(ray, a, b, c, t_min, t_max),
+            TriangleTest::Watertight => WatertightRay::new(ray).intersect(a, b, c, t_min, t_max),
+        };
+        hit.map(|h| MeshHit {
             t: h.t,
             prim,
             u: h.u,
