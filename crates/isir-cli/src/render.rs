@@ -83,17 +83,10 @@ fn file_scene(path: &str) -> anyhow::Result<SceneDescription> {
     let mut d = SceneDescription::new(path, CameraDesc::new(eye, c));
     d.objects.push(ObjectDesc {
         name: path.to_string(),
-        shape: ShapeDesc::Mesh {
-            source: MeshSource::File(path.into()),
-            shading: Default::default(),
-        },
+        shape: ShapeDesc::Mesh { source: MeshSource::File(path.into()), shading: Default::default() },
         material: None,
     });
-    d.lights.push(isir::Light::Point {
-        position: eye,
-        color: isir::color::WHITE,
-        power: 1.2 * r * r,
-    });
+    d.lights.push(isir::Light::Point { position: eye, color: isir::color::WHITE, power: 1.2 * r * r });
     d.display = Display::Srgb;
     d.spp = 4;
     Ok(d)
@@ -109,16 +102,13 @@ pub fn scene_description(name: &str) -> anyhow::Result<SceneDescription> {
 }
 
 pub fn run(a: RenderArgs) -> anyhow::Result<()> {
-    anyhow::ensure!(a.width > 0 && a.height > 0, "--width and --height must be at least 1");
+    isir::image::check_size(a.width, a.height)?;
+    isir::image::check_output_path(&a.output)?;
     let name = a.scene.clone().unwrap_or_else(|| isir::scenes::DEFAULT_SCENE.to_string());
     let desc = scene_description(&name)?;
     let accel: Accel = a.accel.into();
     let t0 = Instant::now();
-    let test = if a.watertight {
-        isir::triangle::TriangleTest::Watertight
-    } else {
-        isir::triangle::TriangleTest::MollerTrumbore
-    };
+    let test = if a.watertight { isir::triangle::TriangleTest::Watertight } else { isir::triangle::TriangleTest::MollerTrumbore };
     let scene = with_threads(a.threads, || desc.build_with(accel, test))??;
     let build_s = t0.elapsed().as_secs_f64();
     warn_all(&scene.warnings);
@@ -142,19 +132,13 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
 
     let bar = ProgressBar::new(u64::from(a.width) * u64::from(a.height));
     bar.set_style(
-        ProgressStyle::with_template("{spinner} {msg} [{bar:40}] {percent}% {elapsed_precise} (eta {eta})")
-            .unwrap()
-            .progress_chars("=> "),
+        ProgressStyle::with_template("{spinner} {msg} [{bar:40}] {percent}% {elapsed_precise} (eta {eta})").unwrap().progress_chars("=> "),
     );
     bar.set_message(name.clone());
-    let (image, stats) = with_threads(a.threads, || {
-        renderer.render_with_progress(&scene, &camera, &integrator, &|n| bar.inc(n))
-    })?;
+    let (image, stats) = with_threads(a.threads, || renderer.render_with_progress(&scene, &camera, &integrator, &|n| bar.inc(n)))?;
     bar.finish_and_clear();
 
-    image
-        .save(&a.output, desc.display)
-        .with_context(|| "writing the image".to_string())?;
+    image.save(&a.output, desc.display).with_context(|| "writing the image".to_string())?;
     let threads = a.threads.unwrap_or_else(rayon::current_num_threads);
     println!(
         "isir: {name} {}x{} {spp} spp, {}, {threads} threads: build {:.3} s, render {:.3} s, {:.2} M rays ({:.2} M primary, {:.2} M shadow), {:.2} Mrays/s -> wrote {}",

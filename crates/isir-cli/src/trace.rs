@@ -80,10 +80,25 @@ pub struct TraceArgs {
     /// Use the watertight ray–triangle test (Woop et al.) instead of Möller–Trumbore.
     #[arg(long)]
     pub watertight: bool,
+    /// Trace consecutive rays in packets of 16 (AVX-512; for coherent rays such as
+    /// primary rays; closest hits only).
+    #[arg(long)]
+    pub packets: bool,
+}
+
+/// How a ray set is traced.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Mode {
+    /// Closest hit, one ray at a time.
+    Closest,
+    /// Closest hit, packets of 16 consecutive rays.
+    Packets,
+    /// Any hit.
+    Occluded,
 }
 
 pub fn rays(a: RaysArgs) -> anyhow::Result<()> {
-    anyhow::ensure!(a.width > 0 && a.height > 0, "--width and --height must be at least 1");
+    isir::image::check_size(a.width, a.height)?;
     let desc = crate::render::scene_description(&a.scene)?;
     let scene = desc.build(Accel::BvhSah)?;
     warn_all(&scene.warnings);
@@ -132,11 +147,12 @@ impl TraceFigures {
 pub fn trace_set(
     mesh: &mut TriangleMesh,
     rays: &[RayRecord],
-    occluded: bool,
+    mode: Mode,
     accel: Accel,
     repeat: u32,
     simd: Option<SimdLevel>,
 ) -> anyhow::Result<TraceFigures> {
+    let occluded = mode == Mode::Occluded;
     let repeat = repeat.max(1);
     let mut build_ms = f64::INFINITY;
     for _ in 0..repeat.min(3) {
@@ -160,7 +176,11 @@ pub fn trace_set(
     let mut trace_ms = f64::INFINITY;
     for _ in 0..repeat {
         let t = Instant::now();
-        rays::trace_mesh(mesh, rays, occluded, &mut hits);
+        if mode == Mode::Packets {
+            rays::trace_mesh_packets(mesh, rays, &mut hits);
+        } else {
+            rays::trace_mesh(mesh, rays, occluded, &mut hits);
+        }
         trace_ms = trace_ms.min(t.elapsed().as_secs_f64() * 1e3);
     }
     // Tree-quality counters, in a separate untimed pass.
@@ -180,10 +200,7 @@ pub fn trace_set(
                     }
                     s
                 })
-                .reduce(TraversalStats::default, |a, b| TraversalStats {
-                    nodes: a.nodes + b.nodes,
-                    triangles: a.triangles + b.triangles,
-                });
+                .reduce(TraversalStats::default, |a, b| TraversalStats { nodes: a.nodes + b.nodes, triangles: a.triangles + b.triangles });
             let n = rays.len().max(1) as f64;
             Some((total.nodes as f64 / n, total.triangles as f64 / n))
         }
@@ -220,26 +237,32 @@ pub fn trace(a: TraceArgs) -> anyhow::Result<()> {
         SimdArg::Avx2 => SimdLevel::Avx2,
         SimdArg::Avx512 => SimdLevel::Avx512,
     });
-    let f = with_threads(a.threads, || trace_set(&mut mesh, &set, a.occluded, accel, a.repeat, simd))??;
+    anyhow::ensure!(!(a.packets && a.occluded), "--packets traces closest hits: drop --occluded or --packets");
+    let mode = if a.occluded {
+        Mode::Occluded
+    } else if a.packets {
+        Mode::Packets
+    } else {
+        Mode::Closest
+    };
+    let f = with_threads(a.threads, || trace_set(&mut mesh, &set, mode, accel, a.repeat, simd))??;
     let threads = a.threads.unwrap_or_else(rayon::current_num_threads);
     println!("engine: isir {}", env!("CARGO_PKG_VERSION"));
     println!(
-        "threads: {threads}\nmode: {}single\naccel: {}\nsimd: {}\ntriangle_test: {:?}",
-        if a.occluded { "occluded-" } else { "" },
+        "threads: {threads}\nmode: {}\naccel: {}\nsimd: {}\ntriangle_test: {:?}",
+        match mode {
+            Mode::Occluded => "occluded-single",
+            Mode::Packets => "packet16",
+            Mode::Closest => "single",
+        },
         accel.name(),
         f.simd,
         mesh.triangle_test
     );
-    println!(
-        "triangles: {}\ndegenerate_triangles: {}\nrays: {}\nhits: {}",
-        f.triangles, f.degenerate, f.rays, f.hits
-    );
+    println!("triangles: {}\ndegenerate_triangles: {}\nrays: {}\nhits: {}", f.triangles, f.degenerate, f.rays, f.hits);
     println!("build_ms: {:.2}\nbuild_mtris_per_s: {:.2}", f.build_ms, f.build_mtris_per_s());
     println!("trace_ms: {:.2}\nmrays_per_s: {:.2}", f.trace_ms, f.mrays_per_s());
-    println!(
-        "sah_cost: {:.3}\nnodes: {}\nbytes_per_triangle: {:.1}",
-        f.sah_cost, f.nodes, f.bytes_per_triangle
-    );
+    println!("sah_cost: {:.3}\nnodes: {}\nbytes_per_triangle: {:.1}", f.sah_cost, f.nodes, f.bytes_per_triangle);
     if let Some((n, t)) = f.visits {
         println!("avg_node_visits: {n:.2}\navg_triangle_tests: {t:.2}");
     }

@@ -3,16 +3,8 @@
 use std::process::Command;
 
 fn isir(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_isir"))
-        .args(args)
-        .current_dir(std::env::temp_dir())
-        .output()
-        .unwrap();
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into(),
-        String::from_utf8_lossy(&out.stderr).into(),
-    )
+    let out = Command::new(env!("CARGO_BIN_EXE_isir")).args(args).current_dir(std::env::temp_dir()).output().unwrap();
+    (out.status.code().unwrap_or(-1), String::from_utf8_lossy(&out.stdout).into(), String::from_utf8_lossy(&out.stderr).into())
 }
 
 fn tmp(name: &str) -> std::path::PathBuf {
@@ -40,36 +32,14 @@ fn scenes_lists_the_four_tp4_scenes() {
 #[test]
 fn render_writes_png_and_exr() {
     let png = tmp("s.png");
-    let (code, out, err) = isir(&[
-        "render",
-        "tp4-sphere",
-        "-o",
-        png.to_str().unwrap(),
-        "--width",
-        "30",
-        "--height",
-        "20",
-        "--spp",
-        "1",
-        "--threads",
-        "1",
-    ]);
+    let (code, out, err) =
+        isir(&["render", "tp4-sphere", "-o", png.to_str().unwrap(), "--width", "30", "--height", "20", "--spp", "1", "--threads", "1"]);
     assert_eq!(code, 0, "{err}");
     assert!(out.contains("Mrays/s") && out.contains(png.to_str().unwrap()), "{out}");
     assert_eq!(&std::fs::read(&png).unwrap()[1..4], b"PNG");
     let exr = tmp("s.exr");
-    let (code, _, err) = isir(&[
-        "render",
-        "tp4-sphere-flat",
-        "-o",
-        exr.to_str().unwrap(),
-        "--width",
-        "30",
-        "--height",
-        "20",
-        "--accel",
-        "bvh-mid",
-    ]);
+    let (code, _, err) =
+        isir(&["render", "tp4-sphere-flat", "-o", exr.to_str().unwrap(), "--width", "30", "--height", "20", "--accel", "bvh-mid"]);
     assert_eq!(code, 0, "{err}");
     assert_eq!(&std::fs::read(&exr).unwrap()[..4], &[0x76, 0x2f, 0x31, 0x01]);
 }
@@ -107,17 +77,51 @@ fn renders_an_obj_file_with_warnings_for_degenerate_triangles() {
     let obj = tmp("quad.obj");
     std::fs::write(&obj, "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\nf 1 1 2\n").unwrap();
     let out_png = tmp("quad.png");
-    let (code, _, err) = isir(&[
-        "render",
-        obj.to_str().unwrap(),
-        "-o",
-        out_png.to_str().unwrap(),
-        "--width",
-        "16",
-        "--height",
-        "16",
-    ]);
+    let (code, _, err) = isir(&["render", obj.to_str().unwrap(), "-o", out_png.to_str().unwrap(), "--width", "16", "--height", "16"]);
     assert_eq!(code, 0, "{err}");
     assert!(err.contains("1 degenerate"), "{err}");
     assert!(out_png.exists());
+}
+
+#[test]
+fn sizes_are_checked_before_any_work() {
+    let (code, _, err) = isir(&["render", "tp4-sphere", "--width", "100000", "--height", "100000"]);
+    one_line_error(code, &err, "100000x100000");
+    let (code, _, err) = isir(&["rays", "tp4-sphere", "--kind", "primary", "-o", "r.bin", "--width", "0"]);
+    one_line_error(code, &err, "at least 1");
+    let (code, _, err) = isir(&["bench", "--height", "0", "--no-embree"]);
+    one_line_error(code, &err, "at least 1");
+}
+
+#[test]
+fn rays_and_trace_round_trip_and_reject_bad_files() {
+    let rays = tmp("p.rays");
+    let (code, out, err) =
+        isir(&["rays", "tp4-sphere", "--kind", "primary", "-o", rays.to_str().unwrap(), "--width", "20", "--height", "10"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("rays: 200"), "{out}");
+    let hits = tmp("p.hits");
+    let (code, out, err) = isir(&["trace", "uvsphere", rays.to_str().unwrap(), "--hits", hits.to_str().unwrap(), "--repeat", "1"]);
+    assert_eq!(code, 0, "{err}");
+    for key in
+        ["triangles: 960", "rays: 200", "build_ms:", "mrays_per_s:", "sah_cost:", "nodes:", "bytes_per_triangle:", "avg_node_visits:"]
+    {
+        assert!(out.contains(key), "missing '{key}' in:\n{out}");
+    }
+    let n_hits: usize = out.lines().find_map(|l| l.strip_prefix("hits: ")).unwrap().parse().unwrap();
+    assert!(n_hits > 0 && n_hits < 200, "{out}");
+    assert_eq!(std::fs::metadata(&hits).unwrap().len(), 24 + 16 * 200);
+    // The same with packets and with the watertight test: the same number of hits.
+    let (_, out_p, _) = isir(&["trace", "uvsphere", rays.to_str().unwrap(), "--packets", "--repeat", "1"]);
+    assert!(out_p.contains(&format!("hits: {n_hits}\n")), "{out_p}");
+    // A truncated ray file and a file that is not one.
+    let bytes = std::fs::read(&rays).unwrap();
+    let cut = tmp("cut.rays");
+    std::fs::write(&cut, &bytes[..bytes.len() - 7]).unwrap();
+    let (code, _, err) = isir(&["trace", "uvsphere", cut.to_str().unwrap()]);
+    one_line_error(code, &err, "cut.rays");
+    let (code, _, err) = isir(&["trace", "uvsphere", hits.to_str().unwrap()]);
+    one_line_error(code, &err, "magic");
+    let (code, _, err) = isir(&["trace", "uvsphere", rays.to_str().unwrap(), "--packets", "--occluded"]);
+    one_line_error(code, &err, "--packets");
 }

@@ -21,10 +21,7 @@ impl Default for Aabb {
 
 impl Aabb {
     /// The empty box.
-    pub const EMPTY: Self = Self {
-        min: Vec3::splat(f32::INFINITY),
-        max: Vec3::splat(f32::NEG_INFINITY),
-    };
+    pub const EMPTY: Self = Self { min: Vec3::splat(f32::INFINITY), max: Vec3::splat(f32::NEG_INFINITY) };
 
     /// The box from two corners.
     #[must_use]

@@ -46,21 +46,11 @@ impl BvhNode {
     }
 
     fn leaf(b: &Aabb, first: u32, count: u32) -> Self {
-        Self {
-            min: b.min.into(),
-            left_first: first,
-            max: b.max.into(),
-            count,
-        }
+        Self { min: b.min.into(), left_first: first, max: b.max.into(), count }
     }
 
     fn interior(b: &Aabb, first_child: u32) -> Self {
-        Self {
-            min: b.min.into(),
-            left_first: first_child,
-            max: b.max.into(),
-            count: 0,
-        }
+        Self { min: b.min.into(), left_first: first_child, max: b.max.into(), count: 0 }
     }
 }
 
@@ -130,16 +120,10 @@ impl Bvh {
         }
         match quality {
             BvhQuality::Midpoint => {
-                let input = BuildInput {
-                    boxes,
-                    centroids: boxes.iter().map(Aabb::centroid).collect(),
-                };
+                let input = BuildInput { boxes, centroids: boxes.iter().map(Aabb::centroid).collect() };
                 let mut nodes = vec![BvhNode::default()];
                 build_midpoint(&input, &mut nodes, 0, &mut indices, 0, 0);
-                Bvh {
-                    nodes,
-                    prim_indices: indices,
-                }
+                Bvh { nodes, prim_indices: indices }
             }
             BvhQuality::Sah => {
                 let (nodes, prim_indices) = build_sah(boxes, &indices);
@@ -310,9 +294,7 @@ fn partition(indices: &mut [u32], mut left: impl FnMut(u32) -> bool) -> usize {
 /// on one side).
 fn median_split(input: &BuildInput, indices: &mut [u32], axis: usize) -> usize {
     let mid = indices.len() / 2;
-    indices.select_nth_unstable_by(mid, |&a, &b| {
-        input.centroids[a as usize][axis].total_cmp(&input.centroids[b as usize][axis])
-    });
+    indices.select_nth_unstable_by(mid, |&a, &b| input.centroids[a as usize][axis].total_cmp(&input.centroids[b as usize][axis]));
     mid
 }
 
@@ -384,12 +366,7 @@ struct Bounds {
 }
 
 impl Bounds {
-    const EMPTY: Bounds = Bounds {
-        lo: Vec3A::INFINITY,
-        hi: Vec3A::NEG_INFINITY,
-        clo: Vec3A::INFINITY,
-        chi: Vec3A::NEG_INFINITY,
-    };
+    const EMPTY: Bounds = Bounds { lo: Vec3A::INFINITY, hi: Vec3A::NEG_INFINITY, clo: Vec3A::INFINITY, chi: Vec3A::NEG_INFINITY };
 
     #[inline(always)]
     fn grow(&mut self, p: &PrimRef) {
@@ -441,11 +418,7 @@ struct Bin {
     count: u32,
 }
 
-const EMPTY_BIN: Bin = Bin {
-    lo: Vec3A::INFINITY,
-    hi: Vec3A::NEG_INFINITY,
-    count: 0,
-};
+const EMPTY_BIN: Bin = Bin { lo: Vec3A::INFINITY, hi: Vec3A::NEG_INFINITY, count: 0 };
 
 type Bins = [[Bin; SAH_BINS]; 3];
 
@@ -473,28 +446,33 @@ impl Binner {
     fn new(b: &Bounds, n: usize) -> Self {
         let count = bin_count(n);
         let extent = b.chi - b.clo;
-        let scale = Vec3A::select(
-            extent.cmpgt(Vec3A::ZERO),
-            Vec3A::splat(count as f32 * (1.0 - 1e-6)) / extent,
-            Vec3A::ZERO,
-        );
-        Self {
-            origin: b.clo,
-            scale,
-            count,
-        }
+        let scale = Vec3A::select(extent.cmpgt(Vec3A::ZERO), Vec3A::splat(count as f32 * (1.0 - 1e-6)) / extent, Vec3A::ZERO);
+        Self { origin: b.clo, scale, count }
     }
 
-    /// The bin on one axis: the same arithmetic as [`Self::bins`], lane for lane.
+    /// True when the record falls in a bin before `k` on `axis`. The same arithmetic as
+    /// [`Self::bins`] without the clamp and the conversion: `floor(x) < k` is `x < k`
+    /// (and a clamped `x` lands on the same side of `k`, as `1 <= k < count`).
     #[inline(always)]
-    fn bin(&self, p: &PrimRef, axis: usize) -> usize {
+    fn before(&self, p: &PrimRef, axis: usize, k: usize) -> bool {
         let c2 = p.min[axis] + p.max[axis];
-        ((c2 - self.origin[axis]) * self.scale[axis]).clamp(0.0, self.count as f32 - 1.0) as usize
+        (c2 - self.origin[axis]) * self.scale[axis] < k as f32
     }
 
     #[inline(always)]
     fn bins(&self, p: &PrimRef) -> [usize; 3] {
         let r = ((p.c2() - self.origin) * self.scale).clamp(Vec3A::ZERO, Vec3A::splat(self.count as f32 - 1.0));
+        // PERF: one truncating SIMD conversion instead of three saturating `as` casts.
+        // The value is clamped to [0, count - 1] above, so truncation is exact.
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::x86_64::{__m128, _mm_cvttps_epi32, _mm_storeu_si128};
+            let mut k = [0i32; 4];
+            // SAFETY: SSE2 is part of x86-64; `k` has room for the four lanes stored.
+            unsafe { _mm_storeu_si128(k.as_mut_ptr().cast(), _mm_cvttps_epi32(__m128::from(r))) };
+            [k[0] as usize, k[1] as usize, k[2] as usize]
+        }
+        #[cfg(not(target_arch = "x86_64"))]
         [r.x as usize, r.y as usize, r.z as usize]
     }
 }
@@ -537,10 +515,7 @@ fn bin_prims(prims: &[PrimRef], binner: &Binner) -> Bins {
         use rayon::prelude::*;
         // Boxes merge by min/max and counts by addition: the result does not depend on
         // how the work was split, so the build is deterministic.
-        prims
-            .par_chunks(16384)
-            .map(fill)
-            .reduce(|| [[EMPTY_BIN; SAH_BINS]; 3], |a, b| merge_bins(a, &b))
+        prims.par_chunks(16384).map(fill).reduce(|| [[EMPTY_BIN; SAH_BINS]; 3], |a, b| merge_bins(a, &b))
     }
 }
 
@@ -633,13 +608,17 @@ fn sah_split(prims: &mut [PrimRef], b: &Bounds, depth: u32) -> Option<(usize, Bo
         return None; // one block: no split can cost less
     }
     let binner = Binner::new(b, n);
-    let (axis, k, cost) = best_split(&bin_prims(prims, &binner), binner.count)?;
+    let Some((axis, k, cost)) = best_split(&bin_prims(prims, &binner), binner.count) else {
+        // Every centroid in one bin (e.g. doubled centroids overflowing to infinity):
+        // the median keeps leaves within the limit the wide layout relies on.
+        return (n > SAH_MAX_LEAF).then(|| median_split_refs(prims, axis));
+    };
     let split_cost = SAH_TRAVERSAL_COST + SAH_INTERSECTION_COST * cost / half_area(b.lo, b.hi).max(f32::MIN_POSITIVE);
     let leaf_cost = SAH_INTERSECTION_COST * blocks(n as u32);
     if n <= SAH_MAX_LEAF && leaf_cost <= split_cost {
         return None;
     }
-    let split = partition_bounds(prims, |p| binner.bin(p, axis) < k);
+    let split = partition_bounds(prims, |p| binner.before(p, axis, k));
     if split.0 == 0 || split.0 == n {
         return Some(median_split_refs(prims, axis));
     }
@@ -675,10 +654,8 @@ fn build_sah_parallel(prims: &mut [PrimRef], b: &Bounds, first: u32, depth: u32)
         return vec![BvhNode::leaf(&b.aabb(), first, prims.len() as u32)];
     };
     let (l, r) = prims.split_at_mut(k);
-    let (left, right) = rayon::join(
-        || build_sah_parallel(l, &lb, first, depth + 1),
-        || build_sah_parallel(r, &rb, first + k as u32, depth + 1),
-    );
+    let (left, right) =
+        rayon::join(|| build_sah_parallel(l, &lb, first, depth + 1), || build_sah_parallel(r, &rb, first + k as u32, depth + 1));
     let mut nodes = Vec::with_capacity(1 + left.len() + right.len());
     nodes.push(BvhNode::interior(&b.aabb(), 1));
     let left_base = 3u32;
@@ -704,12 +681,7 @@ fn build_sah(boxes: &[Aabb], indices: &[u32]) -> (Vec<BvhNode>, Vec<u32>) {
         .par_iter()
         .map(|&i| {
             let b = &boxes[i as usize];
-            PrimRef {
-                min: b.min.into(),
-                index: i,
-                max: b.max.into(),
-                _pad: 0,
-            }
+            PrimRef { min: b.min.into(), index: i, max: b.max.into(), _pad: 0 }
         })
         .collect();
     let bounds = Bounds::of(&prims);
@@ -726,11 +698,7 @@ mod tests {
         let mut rng = rand_pcg::Pcg32::seed_from_u64(seed);
         (0..n)
             .map(|_| {
-                let c = Vec3::new(
-                    rng.random_range(-10.0..10.0),
-                    rng.random_range(-10.0..10.0),
-                    rng.random_range(-10.0..10.0),
-                );
+                let c = Vec3::new(rng.random_range(-10.0..10.0), rng.random_range(-10.0..10.0), rng.random_range(-10.0..10.0));
                 let e = Vec3::new(rng.random_range(0.0..0.5), rng.random_range(0.0..0.5), rng.random_range(0.0..0.5));
                 Aabb::new(c - e, c + e)
             })
@@ -813,6 +781,17 @@ mod tests {
     }
 
     #[test]
+    fn huge_coordinates_still_give_small_leaves() {
+        // Doubled centroids overflow to +inf on x and coincide on y and z: no binned split
+        // exists, the build must still split (the wide layout holds at most 32 per leaf).
+        let mut boxes: Vec<Aabb> = (0..40).map(|i| Aabb::new(Vec3::new(i as f32, 0.0, 0.0), Vec3::new(i as f32 + 1.0, 1.0, 1.0))).collect();
+        boxes.extend((0..40).map(|_| Aabb::new(Vec3::new(3e38, 0.0, 0.0), Vec3::new(3.1e38, 1.0, 1.0))));
+        let bvh = Bvh::build(&boxes, BvhQuality::Sah);
+        check_invariants(&bvh, &boxes, boxes.len());
+        assert!(bvh.nodes.iter().all(|n| !n.is_leaf() || n.count as usize <= SAH_MAX_LEAF));
+    }
+
+    #[test]
     fn parallel_build_is_deterministic() {
         let boxes = random_boxes(100_000, 11);
         let a = Bvh::build(&boxes, BvhQuality::Sah);
@@ -831,29 +810,13 @@ mod tests {
         for q in [BvhQuality::Midpoint, BvhQuality::Sah] {
             let bvh = Bvh::build(&boxes, q);
             for _ in 0..500 {
-                let o = Vec3::new(
-                    rng.random_range(-15.0..15.0),
-                    rng.random_range(-15.0..15.0),
-                    rng.random_range(-15.0..15.0),
-                );
-                let d = Vec3::new(
-                    rng.random_range(-1.0..1.0),
-                    rng.random_range(-1.0..1.0),
-                    rng.random_range(-1.0..1.0),
-                );
+                let o = Vec3::new(rng.random_range(-15.0..15.0), rng.random_range(-15.0..15.0), rng.random_range(-15.0..15.0));
+                let d = Vec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0));
                 let ray = Ray::new(o, d);
-                let hit = |p: u32, t_max: f32| {
-                    boxes[p as usize]
-                        .intersect(&ray, 0.0, t_max)
-                        .map(|(t0, _)| t0)
-                        .filter(|&t| t < t_max)
-                };
+                let hit = |p: u32, t_max: f32| boxes[p as usize].intersect(&ray, 0.0, t_max).map(|(t0, _)| t0).filter(|&t| t < t_max);
                 let brute = (0..boxes.len() as u32).fold(f32::INFINITY, |best, p| hit(p, best).unwrap_or(best));
                 assert_eq!(bvh.intersect(&ray, 0.0, f32::INFINITY, hit), brute);
-                assert_eq!(
-                    bvh.occluded(&ray, 0.0, f32::INFINITY, |p, t| hit(p, t).is_some()),
-                    brute.is_finite()
-                );
+                assert_eq!(bvh.occluded(&ray, 0.0, f32::INFINITY, |p, t| hit(p, t).is_some()), brute.is_finite());
             }
         }
     }

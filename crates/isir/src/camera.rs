@@ -29,12 +29,7 @@ impl Camera {
         let height = 2.0 * (fovy_degrees.to_radians() * 0.5).tan() * focal;
         let width = height * aspect;
         let top_left = position - w * focal + v * height * 0.5 - u * width * 0.5;
-        Self {
-            position,
-            top_left,
-            viewport_u: u * width,
-            viewport_v: v * height,
-        }
+        Self { position, top_left, viewport_u: u * width, viewport_v: v * height }
     }
 
     /// The camera's position.

@@ -23,11 +23,7 @@ impl Display {
         match self {
             Display::LinearClamp => (c * 255.0) as u8,
             Display::Srgb => {
-                let s = if c <= 0.003_130_8 {
-                    12.92 * c
-                } else {
-                    1.055 * c.powf(1.0 / 2.4) - 0.055
-                };
+                let s = if c <= 0.003_130_8 { 12.92 * c } else { 1.055 * c.powf(1.0 / 2.4) - 0.055 };
                 (s * 255.0).round() as u8
             }
         }
@@ -45,35 +41,63 @@ pub struct Image {
     pub pixels: Vec<Color>,
 }
 
+/// The largest image (in pixels) the tools accept: 16384 × 16384, 3 GiB of floats.
+pub const MAX_PIXELS: u64 = 1 << 28;
+
+/// Check an image size: both sides at least 1, at most [`MAX_PIXELS`] pixels.
+///
+/// # Errors
+/// A side of 0, or too many pixels.
+pub fn check_size(width: u32, height: u32) -> Result<()> {
+    let n = u64::from(width) * u64::from(height);
+    if width == 0 || height == 0 {
+        return Err(Error::Scene(format!("image size {width}x{height}: width and height must be at least 1")));
+    }
+    if n > MAX_PIXELS {
+        return Err(Error::Scene(format!("image size {width}x{height}: {n} pixels, more than the {MAX_PIXELS} allowed")));
+    }
+    Ok(())
+}
+
+/// Check that `path` names a format [`Image::save`] writes (before spending a render on it).
+///
+/// # Errors
+/// An extension other than `.png` or `.exr`.
+pub fn check_output_path(path: &Path) -> Result<()> {
+    let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).unwrap_or_default();
+    match ext.as_str() {
+        "png" | "exr" => Ok(()),
+        _ => Err(Error::Image { path: path.to_path_buf(), message: format!("unsupported image format '.{ext}' (use .png or .exr)") }),
+    }
+}
+
 impl Image {
     /// A black image.
     #[must_use]
     pub fn new(width: u32, height: u32) -> Self {
-        Self {
-            width,
-            height,
-            pixels: vec![Color::ZERO; (width * height) as usize],
-        }
+        Self { width, height, pixels: vec![Color::ZERO; width as usize * height as usize] }
+    }
+
+    fn index(&self, x: u32, y: u32) -> usize {
+        y as usize * self.width as usize + x as usize
     }
 
     /// The pixel at column `x`, row `y`.
     #[must_use]
     pub fn get(&self, x: u32, y: u32) -> Color {
-        self.pixels[(y * self.width + x) as usize]
+        self.pixels[self.index(x, y)]
     }
 
     /// Set the pixel at column `x`, row `y`.
     pub fn set(&mut self, x: u32, y: u32, c: Color) {
-        self.pixels[(y * self.width + x) as usize] = c;
+        let i = self.index(x, y);
+        self.pixels[i] = c;
     }
 
     /// 8-bit RGB bytes, row by row.
     #[must_use]
     pub fn to_rgb8(&self, display: Display) -> Vec<u8> {
-        self.pixels
-            .iter()
-            .flat_map(|c| [display.encode(c.x), display.encode(c.y), display.encode(c.z)])
-            .collect()
+        self.pixels.iter().flat_map(|c| [display.encode(c.x), display.encode(c.y), display.encode(c.z)]).collect()
     }
 
     /// Write to `path`: linear float OpenEXR when it ends in `.exr`, otherwise PNG through
@@ -83,15 +107,9 @@ impl Image {
     /// An unsupported extension, or a file that cannot be written.
     pub fn save(&self, path: impl AsRef<Path>, display: Display) -> Result<()> {
         let path = path.as_ref();
-        let ext = path
-            .extension()
-            .and_then(|e| e.to_str())
-            .map(str::to_ascii_lowercase)
-            .unwrap_or_default();
-        let fail = |message: String| Error::Image {
-            path: path.to_path_buf(),
-            message,
-        };
+        check_output_path(path)?;
+        let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).unwrap_or_default();
+        let fail = |message: String| Error::Image { path: path.to_path_buf(), message };
         match ext.as_str() {
             "exr" => {
                 let w = self.width as usize;
@@ -101,14 +119,8 @@ impl Image {
                 })
                 .map_err(|e| fail(e.to_string()))
             }
-            "png" => image::save_buffer(
-                path,
-                &self.to_rgb8(display),
-                self.width,
-                self.height,
-                image::ExtendedColorType::Rgb8,
-            )
-            .map_err(|e| fail(e.to_string())),
+            "png" => image::save_buffer(path, &self.to_rgb8(display), self.width, self.height, image::ExtendedColorType::Rgb8)
+                .map_err(|e| fail(e.to_string())),
             _ => Err(fail(format!("unsupported image format '.{ext}' (use .png or .exr)"))),
         }
     }

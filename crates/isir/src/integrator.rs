@@ -73,11 +73,7 @@ fn direct_lighting(scene: &Scene, ray: &Ray, hit: &Hit, light_samples: u32, samp
                 continue;
             }
             // ---- Shadow ray, offset off the surface on the light's side ----
-            let ng = if hit.geometric_normal.dot(ls.direction) >= 0.0 {
-                hit.geometric_normal
-            } else {
-                -hit.geometric_normal
-            };
+            let ng = if hit.geometric_normal.dot(ls.direction) >= 0.0 { hit.geometric_normal } else { -hit.geometric_normal };
             let origin = offset_ray_origin(hit.point, ng);
             let distance = (ls.distance - (origin - hit.point).length()) * (1.0 - 1e-4);
             counters.shadow += 1;

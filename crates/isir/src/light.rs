@@ -59,20 +59,9 @@ impl Light {
             Light::Point { position, color, power } => {
                 let to = position - x;
                 let d = to.length();
-                LightSample {
-                    direction: to / d,
-                    distance: d,
-                    radiance: color * power / (d * d),
-                    pdf: 1.0,
-                }
+                LightSample { direction: to / d, distance: d, radiance: color * power / (d * d), pdf: 1.0 }
             }
-            Light::Quad {
-                corner,
-                u,
-                v,
-                color,
-                power,
-            } => {
+            Light::Quad { corner, u, v, color, power } => {
                 let y = corner + xi.x * u + xi.y * v;
                 let to = y - x;
                 let d = to.length();
@@ -82,20 +71,10 @@ impl Light {
                 let cos = n.dot(wi);
                 if cos.is_nan() || cos <= 0.0 {
                     // The back of the light: nothing.
-                    return LightSample {
-                        direction: wi,
-                        distance: d,
-                        radiance: Color::ZERO,
-                        pdf: 0.0,
-                    };
+                    return LightSample { direction: wi, distance: d, radiance: Color::ZERO, pdf: 0.0 };
                 }
                 let pdf = d * d / (area * cos);
-                LightSample {
-                    direction: wi,
-                    distance: d,
-                    radiance: color * power / pdf,
-                    pdf,
-                }
+                LightSample { direction: wi, distance: d, radiance: color * power / pdf, pdf }
             }
         }
     }
@@ -107,11 +86,7 @@ mod tests {
 
     #[test]
     fn point_light_falls_off_with_distance_squared() {
-        let l = Light::Point {
-            position: Vec3::new(0.0, 10.0, 0.0),
-            color: Vec3::ONE,
-            power: 100.0,
-        };
+        let l = Light::Point { position: Vec3::new(0.0, 10.0, 0.0), color: Vec3::ONE, power: 100.0 };
         let s = l.sample(Vec3::ZERO, Vec2::ZERO);
         assert_eq!(s.direction, Vec3::Y);
         assert_eq!(s.distance, 10.0);

@@ -41,10 +41,7 @@ pub struct LoadedMesh {
 /// # Errors
 /// The file cannot be read or is not valid gzip.
 pub fn read_file(path: &Path) -> Result<Vec<u8>> {
-    let io = |source| Error::Io {
-        path: path.to_path_buf(),
-        source,
-    };
+    let io = |source| Error::Io { path: path.to_path_buf(), source };
     let raw = std::fs::read(path).map_err(io)?;
     if path.extension().is_some_and(|e| e == "gz") {
         gunzip(&raw).map_err(io)
@@ -83,15 +80,18 @@ pub fn load_obj(path: &Path) -> Result<LoadedMesh> {
 /// # Errors
 /// Malformed OBJ: the error names `path` and the offending line.
 pub fn parse_obj(path: &Path, bytes: &[u8], mtl_loader: impl Fn(&Path) -> Option<Vec<u8>>) -> Result<LoadedMesh> {
-    let options = tobj::LoadOptions {
-        triangulate: true,
-        single_index: true,
-        ignore_points: true,
-        ignore_lines: true,
-    };
+    let options = tobj::LoadOptions { triangulate: true, single_index: true, ignore_points: true, ignore_lines: true };
     let missing_mtl = std::cell::RefCell::new(Vec::new());
+    let bad_mtl = std::cell::RefCell::new(Vec::new());
     let loaded = tobj::load_obj_buf(&mut BufReader::new(bytes), &options, |mtl| match mtl_loader(mtl) {
-        Some(m) => tobj::load_mtl_buf(&mut BufReader::new(&m[..])),
+        Some(m) => match locate_mtl_error(&m) {
+            // tobj panics on some malformed colour lines: check them first.
+            Some((line, problem)) => {
+                bad_mtl.borrow_mut().push(format!("{}:{line}: {problem}", mtl.display()));
+                Err(tobj::LoadError::MaterialParseError)
+            }
+            None => tobj::load_mtl_buf(&mut BufReader::new(&m[..])),
+        },
         None => {
             missing_mtl.borrow_mut().push(mtl.display().to_string());
             Err(tobj::LoadError::OpenFileFailed)
@@ -101,31 +101,21 @@ pub fn parse_obj(path: &Path, bytes: &[u8], mtl_loader: impl Fn(&Path) -> Option
         Ok(x) => x,
         Err(e) => {
             let (line, message) = locate_error(bytes).map_or((None, e.to_string()), |(l, m)| (Some(l), m));
-            return Err(Error::Mesh {
-                path: path.to_path_buf(),
-                line,
-                message,
-            });
+            return Err(Error::Mesh { path: path.to_path_buf(), line, message });
         }
     };
     let mut warnings = Vec::new();
     let materials: Vec<FileMaterial> = match materials {
-        Ok(m) => m
-            .into_iter()
-            .map(|m| FileMaterial {
-                diffuse: m.diffuse.map_or(WHITE, Color::from),
-                name: m.name,
-            })
-            .collect(),
+        Ok(m) => m.into_iter().map(|m| FileMaterial { diffuse: m.diffuse.map_or(WHITE, Color::from), name: m.name }).collect(),
         Err(e) => {
             let missing = missing_mtl.borrow();
-            if missing.is_empty() {
+            let bad = bad_mtl.borrow();
+            if !bad.is_empty() {
+                warnings.push(format!("material library {}; faces use the default material", bad.join(", ")));
+            } else if missing.is_empty() {
                 warnings.push(format!("material library: {e}; faces use the default material"));
             } else {
-                warnings.push(format!(
-                    "material library {} not found; faces use the default material",
-                    missing.join(", ")
-                ));
+                warnings.push(format!("material library {} not found; faces use the default material", missing.join(", ")));
             }
             Vec::new()
         }
@@ -149,11 +139,7 @@ pub fn parse_obj(path: &Path, bytes: &[u8], mtl_loader: impl Fn(&Path) -> Option
         let slot = m.material_id.filter(|&id| id < materials.len()).unwrap_or(materials.len()) as u32;
         for t in m.indices.chunks_exact(3) {
             if t.iter().any(|&i| i as usize >= count) {
-                return Err(Error::Mesh {
-                    path: path.to_path_buf(),
-                    line: None,
-                    message: "face index out of range".into(),
-                });
+                return Err(Error::Mesh { path: path.to_path_buf(), line: None, message: "face index out of range".into() });
             }
             triangles.push([base + t[0], base + t[1], base + t[2]]);
             slots.push(slot);
@@ -172,12 +158,24 @@ pub fn parse_obj(path: &Path, bytes: &[u8], mtl_loader: impl Fn(&Path) -> Option
         warnings.push("no triangles".into());
     }
     if stats.degenerate > 0 {
-        warnings.push(format!(
-            "{} degenerate triangles (zero area or non-finite vertices) are never hit",
-            stats.degenerate
-        ));
+        warnings.push(format!("{} degenerate triangles (zero area or non-finite vertices) are never hit", stats.degenerate));
     }
     Ok(LoadedMesh { mesh, materials, warnings })
+}
+
+/// Find the first colour line of an MTL file without three numbers (tobj would panic).
+fn locate_mtl_error(bytes: &[u8]) -> Option<(usize, String)> {
+    let text = String::from_utf8_lossy(bytes);
+    for (i, line) in text.lines().enumerate() {
+        let mut words = line.split_whitespace();
+        if let Some(key @ ("Ka" | "Kd" | "Ks" | "Ke")) = words.next() {
+            let vals: Vec<&str> = words.take(3).collect();
+            if vals.len() < 3 || vals.iter().any(|w| w.parse::<f32>().is_err()) {
+                return Some((i + 1, format!("bad {key} '{}': expected 3 numbers", line.trim())));
+            }
+        }
+    }
+    None
 }
 
 /// Find the first line tobj would reject, to name it in the error.
@@ -199,11 +197,17 @@ fn locate_error(bytes: &[u8]) -> Option<(usize, String)> {
         let problem = match key {
             "v" => {
                 nv += 1;
-                floats(words, 3, "vertex")
+                // x y z, then nothing, a non-zero w, or r g b (tobj's rules).
+                let vals: Vec<&str> = words.clone().collect();
+                floats(words, 3, "vertex").or_else(|| match vals.len() {
+                    3 | 6 => None,
+                    4 if vals[3].parse::<f32>().is_ok_and(|w| w != 0.0) => None,
+                    _ => Some(format!("bad vertex '{}': expected x y z, x y z w (w not 0) or x y z r g b", line.trim())),
+                })
             }
             "vt" => {
                 nvt += 1;
-                floats(words, 1, "texture coordinate")
+                floats(words, 2, "texture coordinate")
             }
             "vn" => {
                 nvn += 1;
@@ -215,6 +219,9 @@ fn locate_error(bytes: &[u8]) -> Option<(usize, String)> {
                         continue;
                     }
                     let n = [nv, nvt, nvn][k.min(2)];
+                    if k > 0 && n == 0 {
+                        continue; // tobj ignores texture and normal indices when there are none
+                    }
                     match part.parse::<i64>() {
                         Ok(idx) if idx != 0 && (idx > 0 && idx <= n || idx < 0 && -idx <= n) => {}
                         Ok(idx) => {
@@ -250,10 +257,7 @@ mod tests {
         let m = parse("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv -1 1 0\nf 1 2 3\nf 1 2 3 4 5\n").unwrap();
         let tris: Vec<[Vec3; 3]> = (0..m.mesh.triangles.len() as u32).map(|i| m.mesh.triangle_vertices(i)).collect();
         let v = |i: usize| [Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y, Vec3::new(-1.0, 1.0, 0.0)][i];
-        assert_eq!(
-            tris,
-            vec![[v(0), v(1), v(2)], [v(0), v(1), v(2)], [v(0), v(2), v(3)], [v(0), v(3), v(4)]]
-        );
+        assert_eq!(tris, vec![[v(0), v(1), v(2)], [v(0), v(1), v(2)], [v(0), v(2), v(3)], [v(0), v(3), v(4)]]);
         assert!(m.mesh.normals.is_empty(), "no normals in the file");
         assert!(m.warnings.is_empty(), "{:?}", m.warnings);
     }
@@ -273,6 +277,30 @@ mod tests {
         let m = parse("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\nv nan 0 0\nf 1 2 3\nf 1 2 4\nf 1 5 3\n").unwrap();
         assert_eq!(m.mesh.stats().degenerate, 2);
         assert!(m.warnings.iter().any(|w| w.contains("2 degenerate")), "{:?}", m.warnings);
+    }
+
+    #[test]
+    fn malformed_material_library_is_a_warning_naming_its_line() {
+        // tobj itself panics on a colour with fewer than three numbers.
+        let m = parse_obj(Path::new("t.obj"), b"mtllib m.mtl\nusemtl a\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", |_| {
+            Some(b"newmtl a\nKa 0 0 0\nKd 0.5\n".to_vec())
+        })
+        .unwrap();
+        assert!(m.warnings.iter().any(|w| w.contains("m.mtl:3:") && w.contains("Kd")), "{:?}", m.warnings);
+        assert!(m.materials.is_empty());
+        assert_eq!(m.mesh.triangles.len(), 1);
+    }
+
+    #[test]
+    fn vertex_and_texture_lines_follow_tobj_rules() {
+        let e = parse("v 0 0 0 0\n").unwrap_err().to_string();
+        assert!(e.starts_with("test.obj:1:"), "{e}");
+        let e = parse("v 0 0 0\nv 0 0 0 1 2\n").unwrap_err().to_string();
+        assert!(e.starts_with("test.obj:2:"), "{e}");
+        let e = parse("v 0 0 0\nvt 0.5\n").unwrap_err().to_string();
+        assert!(e.starts_with("test.obj:2:"), "{e}");
+        assert!(parse("v 0 0 0 1\nv 1 0 0 2\nv 0 1 0 1\nf 1 2 3\n").is_ok());
+        assert!(parse("v 0 0 0 1 0 0\nv 1 0 0 0 1 0\nv 0 1 0 0 0 1\nf 1 2 3\n").is_ok());
     }
 
     #[test]

@@ -51,19 +51,9 @@ pub struct HitRecord {
 
 impl HitRecord {
     /// A miss.
-    pub const MISS: HitRecord = HitRecord {
-        t: f32::INFINITY,
-        prim: u32::MAX,
-        u: 0.0,
-        v: 0.0,
-    };
+    pub const MISS: HitRecord = HitRecord { t: f32::INFINITY, prim: u32::MAX, u: 0.0, v: 0.0 };
     /// An occluded any-hit result.
-    pub const OCCLUDED: HitRecord = HitRecord {
-        t: 0.0,
-        prim: u32::MAX,
-        u: 0.0,
-        v: 0.0,
-    };
+    pub const OCCLUDED: HitRecord = HitRecord { t: 0.0, prim: u32::MAX, u: 0.0, v: 0.0 };
 
     /// True unless a miss.
     #[must_use]
@@ -82,20 +72,14 @@ fn header(magic: &[u8; 8], count: usize) -> Vec<u8> {
 }
 
 fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
-    let io = |source| Error::Io {
-        path: path.to_path_buf(),
-        source,
-    };
+    let io = |source| Error::Io { path: path.to_path_buf(), source };
     let mut f = std::io::BufWriter::new(std::fs::File::create(path).map_err(io)?);
     f.write_all(bytes).map_err(io)?;
     f.flush().map_err(io)
 }
 
 fn read_records<'a>(path: &Path, bytes: &'a [u8], magic: &[u8; 8], record: usize) -> Result<&'a [u8]> {
-    let bad = |message: String| Error::RayFile {
-        path: path.to_path_buf(),
-        message,
-    };
+    let bad = |message: String| Error::RayFile { path: path.to_path_buf(), message };
     if bytes.len() < HEADER || &bytes[..8] != magic {
         return Err(bad(format!("not a {} file (magic)", String::from_utf8_lossy(magic))));
     }
@@ -123,16 +107,7 @@ pub fn write_rays(path: &Path, rays: &[RayRecord]) -> Result<()> {
     let mut b = header(RAYS_MAGIC, rays.len());
     b.reserve(rays.len() * 32);
     for r in rays {
-        for x in [
-            r.origin.x,
-            r.origin.y,
-            r.origin.z,
-            r.t_min,
-            r.direction.x,
-            r.direction.y,
-            r.direction.z,
-            r.t_max,
-        ] {
+        for x in [r.origin.x, r.origin.y, r.origin.z, r.t_min, r.direction.x, r.direction.y, r.direction.z, r.t_max] {
             b.extend_from_slice(&x.to_le_bytes());
         }
     }
@@ -144,10 +119,7 @@ pub fn write_rays(path: &Path, rays: &[RayRecord]) -> Result<()> {
 /// # Errors
 /// The file cannot be read, or is not a v1 ray file, or is truncated.
 pub fn read_rays(path: &Path) -> Result<Vec<RayRecord>> {
-    let bytes = std::fs::read(path).map_err(|source| Error::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let bytes = std::fs::read(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
     let body = read_records(path, &bytes, RAYS_MAGIC, 32)?;
     Ok(body
         .chunks_exact(32)
@@ -181,19 +153,11 @@ pub fn write_hits(path: &Path, hits: &[HitRecord]) -> Result<()> {
 /// # Errors
 /// The file cannot be read, or is not a v1 hit file, or is truncated.
 pub fn read_hits(path: &Path) -> Result<Vec<HitRecord>> {
-    let bytes = std::fs::read(path).map_err(|source| Error::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let bytes = std::fs::read(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
     let body = read_records(path, &bytes, HITS_MAGIC, 16)?;
     Ok(body
         .chunks_exact(16)
-        .map(|c| HitRecord {
-            t: f32_at(c, 0),
-            prim: u32::from_le_bytes(c[4..8].try_into().unwrap()),
-            u: f32_at(c, 2),
-            v: f32_at(c, 3),
-        })
+        .map(|c| HitRecord { t: f32_at(c, 0), prim: u32::from_le_bytes(c[4..8].try_into().unwrap()), u: f32_at(c, 2), v: f32_at(c, 3) })
         .collect())
 }
 
@@ -238,12 +202,7 @@ pub fn generate(scene: &Scene, camera: &Camera, width: u32, height: u32, kind: R
             for x in 0..width {
                 let primary = camera.generate_ray((x as f32 + 0.5) / width as f32, (y as f32 + 0.5) / height as f32);
                 if kind == RayKind::Primary {
-                    out.push(RayRecord {
-                        origin: primary.origin,
-                        t_min: 0.0,
-                        direction: primary.direction,
-                        t_max: f32::INFINITY,
-                    });
+                    out.push(RayRecord { origin: primary.origin, t_min: 0.0, direction: primary.direction, t_max: f32::INFINITY });
                     continue;
                 }
                 let Some(hit) = scene.intersect(&primary, 0.0, f32::INFINITY) else {
@@ -254,12 +213,7 @@ pub fn generate(scene: &Scene, camera: &Camera, width: u32, height: u32, kind: R
                 match kind {
                     RayKind::Diffuse => {
                         let d = square_to_cosine_hemisphere(n, rng.next_2d());
-                        out.push(RayRecord {
-                            origin: offset_ray_origin(hit.point, n),
-                            t_min: 0.0,
-                            direction: d,
-                            t_max: f32::INFINITY,
-                        });
+                        out.push(RayRecord { origin: offset_ray_origin(hit.point, n), t_min: 0.0, direction: d, t_max: f32::INFINITY });
                     }
                     RayKind::Shadow => {
                         let ls = scene.lights[0].sample(hit.point, rng.next_2d());
@@ -267,12 +221,10 @@ pub fn generate(scene: &Scene, camera: &Camera, width: u32, height: u32, kind: R
                         let origin = offset_ray_origin(hit.point, side);
                         let to = hit.point + ls.direction * ls.distance - origin;
                         let dist = to.length();
-                        out.push(RayRecord {
-                            origin,
-                            t_min: 0.0,
-                            direction: to / dist,
-                            t_max: dist * (1.0 - 1e-4),
-                        });
+                        if !(dist > 0.0 && dist.is_finite()) {
+                            continue; // the hit point is on the light: no direction to shoot
+                        }
+                        out.push(RayRecord { origin, t_min: 0.0, direction: to / dist, t_max: dist * (1.0 - 1e-4) });
                     }
                     RayKind::Primary => unreachable!(),
                 }
@@ -292,32 +244,14 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("isir-rays-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let rays = vec![
-            RayRecord {
-                origin: Vec3::new(1.0, 2.0, 3.0),
-                t_min: 0.0,
-                direction: Vec3::new(0.0, 0.0, 1.0),
-                t_max: f32::INFINITY,
-            },
-            RayRecord {
-                origin: Vec3::ZERO,
-                t_min: 0.5,
-                direction: Vec3::new(1.0, -1.0, 0.0),
-                t_max: 9.0,
-            },
+            RayRecord { origin: Vec3::new(1.0, 2.0, 3.0), t_min: 0.0, direction: Vec3::new(0.0, 0.0, 1.0), t_max: f32::INFINITY },
+            RayRecord { origin: Vec3::ZERO, t_min: 0.5, direction: Vec3::new(1.0, -1.0, 0.0), t_max: 9.0 },
         ];
         let p = dir.join("r.bin");
         write_rays(&p, &rays).unwrap();
         assert_eq!(std::fs::metadata(&p).unwrap().len(), 24 + 64);
         assert_eq!(read_rays(&p).unwrap(), rays);
-        let hits = vec![
-            HitRecord::MISS,
-            HitRecord {
-                t: 2.0,
-                prim: 7,
-                u: 0.25,
-                v: 0.5,
-            },
-        ];
+        let hits = vec![HitRecord::MISS, HitRecord { t: 2.0, prim: 7, u: 0.25, v: 0.5 }];
         let h = dir.join("h.bin");
         write_hits(&h, &hits).unwrap();
         assert_eq!(read_hits(&h).unwrap(), hits);
@@ -352,13 +286,32 @@ pub fn trace_mesh(mesh: &crate::TriangleMesh, rays: &[RayRecord], occluded: bool
                     HitRecord::MISS
                 }
             } else {
-                mesh.intersect(&ray, r.t_min, r.t_max).map_or(HitRecord::MISS, |m| HitRecord {
-                    t: m.t,
-                    prim: m.prim,
-                    u: m.u,
-                    v: m.v,
-                })
+                mesh.intersect(&ray, r.t_min, r.t_max).map_or(HitRecord::MISS, |m| HitRecord { t: m.t, prim: m.prim, u: m.u, v: m.v })
             };
+        }
+    });
+}
+
+/// [`trace_mesh`] for closest hits of coherent rays: consecutive rays go in packets of
+/// 16 through [`crate::wide::WideBvh::intersect_packet`] when the mesh has a wide BVH
+/// (one at a time otherwise). Same hits as [`trace_mesh`].
+///
+/// # Panics
+/// If `hits` and `rays` differ in length.
+pub fn trace_mesh_packets(mesh: &crate::TriangleMesh, rays: &[RayRecord], hits: &mut [HitRecord]) {
+    use crate::geometry::MeshAccel;
+    use crate::packet::PACKET;
+    let MeshAccel::Wide(wide) = mesh.accel() else {
+        return trace_mesh(mesh, rays, false, hits);
+    };
+    assert_eq!(rays.len(), hits.len());
+    rays.par_chunks(CHUNK).zip(hits.par_chunks_mut(CHUNK)).for_each(|(rays, hits)| {
+        let mut out = [None; PACKET];
+        for (rays, hits) in rays.chunks(PACKET).zip(hits.chunks_mut(PACKET)) {
+            wide.intersect_packet(rays, &mut out);
+            for (h, o) in hits.iter_mut().zip(&out) {
+                *h = o.map_or(HitRecord::MISS, |m| HitRecord { t: m.t, prim: m.prim, u: m.u, v: m.v });
+            }
         }
     });
 }
@@ -391,10 +344,7 @@ impl HitAgreement {
 /// Compare two hit sets: same hit/miss and `|t_a - t_b| <= rel_tol · max(|t_a|, |t_b|)`.
 #[must_use]
 pub fn compare_hits(a: &[HitRecord], b: &[HitRecord], rel_tol: f32) -> HitAgreement {
-    let mut r = HitAgreement {
-        rays: a.len().min(b.len()),
-        ..Default::default()
-    };
+    let mut r = HitAgreement { rays: a.len().min(b.len()), ..Default::default() };
     for (x, y) in a.iter().zip(b) {
         match (x.is_hit(), y.is_hit()) {
             (false, false) => r.agree += 1,

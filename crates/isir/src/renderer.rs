@@ -48,13 +48,7 @@ impl Renderer {
     /// A renderer for `width × height` images, one sample per pixel, seed 0.
     #[must_use]
     pub fn new(width: u32, height: u32) -> Self {
-        Self {
-            width,
-            height,
-            spp: 1,
-            seed: 0,
-            tile: 16,
-        }
+        Self { width, height, spp: 1, seed: 0, tile: 16 }
     }
 
     /// Set the samples per pixel.
@@ -122,13 +116,7 @@ impl Renderer {
             rays.primary += counters.primary;
             rays.shadow += counters.shadow;
         }
-        (
-            image,
-            RenderStats {
-                seconds: start.elapsed().as_secs_f64(),
-                rays,
-            },
-        )
+        (image, RenderStats { seconds: start.elapsed().as_secs_f64(), rays })
     }
 
     /// The average of the pixel's samples.

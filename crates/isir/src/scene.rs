@@ -133,11 +133,7 @@ impl Scene {
         let (normal, geometric, slot) = match &o.geometry {
             Geometry::Sphere(s) => (s.normal(point), s.normal(point), 0),
             Geometry::Plane(p) => (p.normal, p.normal, 0),
-            Geometry::Mesh(m) => (
-                m.shading_normal(prim, u, v),
-                m.face_normal(prim),
-                m.material_slots[prim as usize] as usize,
-            ),
+            Geometry::Mesh(m) => (m.shading_normal(prim, u, v), m.face_normal(prim), m.material_slots[prim as usize] as usize),
         };
         let face = |n: Vec3| if ray.direction.dot(n) > 0.0 { -n } else { n };
         Some(Hit {
@@ -198,12 +194,7 @@ impl CameraDesc {
     /// The course's camera: up = +y, 60° vertical field of view.
     #[must_use]
     pub fn new(position: Vec3, look_at: Vec3) -> Self {
-        Self {
-            position,
-            look_at,
-            up: Vec3::Y,
-            fovy: 60.0,
-        }
+        Self { position, look_at, up: Vec3::Y, fovy: 60.0 }
     }
 
     /// The camera for an image of this aspect ratio (width / height).
@@ -316,11 +307,9 @@ impl SceneDescription {
         let lookup = |name: &Option<String>| -> Result<Option<MaterialId>> {
             match name {
                 None => Ok(None),
-                Some(n) => by_name
-                    .get(n.as_str())
-                    .copied()
-                    .map(Some)
-                    .ok_or_else(|| Error::Scene(format!("object material '{n}' is not defined"))),
+                Some(n) => {
+                    by_name.get(n.as_str()).copied().map(Some).ok_or_else(|| Error::Scene(format!("object material '{n}' is not defined")))
+                }
             }
         };
         let mut objects = Vec::new();
@@ -358,18 +347,8 @@ impl SceneDescription {
                     (Geometry::Mesh(Box::new(mesh)), mats)
                 }
             };
-            objects.push(Object {
-                name: desc.name.clone(),
-                geometry,
-                materials: mats,
-            });
+            objects.push(Object { name: desc.name.clone(), geometry, materials: mats });
         }
-        Ok(Scene {
-            objects,
-            materials,
-            lights: self.lights.clone(),
-            background: self.background,
-            warnings,
-        })
+        Ok(Scene { objects, materials, lights: self.lights.clone(), background: self.background, warnings })
     }
 }

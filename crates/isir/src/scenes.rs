@@ -15,18 +15,8 @@ use std::path::Path;
 /// The models shipped with the library: name, OBJ bytes (gzip when the name of the
 /// original ends in `.gz`), MTL bytes.
 const MODELS: [(&str, &str, &[u8], &[u8]); 3] = [
-    (
-        "uvsphere",
-        "uvsphere.obj",
-        include_bytes!("../data/uvsphere.obj"),
-        include_bytes!("../data/uvsphere.mtl"),
-    ),
-    (
-        "Bunny",
-        "Bunny.obj",
-        include_bytes!("../data/Bunny.obj"),
-        include_bytes!("../data/Bunny.mtl"),
-    ),
+    ("uvsphere", "uvsphere.obj", include_bytes!("../data/uvsphere.obj"), include_bytes!("../data/uvsphere.mtl")),
+    ("Bunny", "Bunny.obj", include_bytes!("../data/Bunny.obj"), include_bytes!("../data/Bunny.mtl")),
     (
         "conference",
         "conference.obj.gz",
@@ -46,10 +36,7 @@ pub fn builtin_models() -> Vec<&'static str> {
 /// # Errors
 /// No such model.
 pub fn builtin_model_obj(name: &str) -> Result<Vec<u8>> {
-    let (_, file, bytes, _) = MODELS
-        .iter()
-        .find(|m| m.0 == name)
-        .ok_or_else(|| Error::Scene(format!("no built-in model '{name}'")))?;
+    let (_, file, bytes, _) = MODELS.iter().find(|m| m.0 == name).ok_or_else(|| Error::Scene(format!("no built-in model '{name}'")))?;
     if file.ends_with(".gz") {
         obj::gunzip(bytes).map_err(|source| Error::Io { path: file.into(), source })
     } else {
@@ -62,10 +49,7 @@ pub fn builtin_model_obj(name: &str) -> Result<Vec<u8>> {
 /// # Errors
 /// No such model.
 pub fn load_builtin_model(name: &str) -> Result<LoadedMesh> {
-    let (_, file, _, mtl) = MODELS
-        .iter()
-        .find(|m| m.0 == name)
-        .ok_or_else(|| Error::Scene(format!("no built-in model '{name}'")))?;
+    let (_, file, _, mtl) = MODELS.iter().find(|m| m.0 == name).ok_or_else(|| Error::Scene(format!("no built-in model '{name}'")))?;
     let bytes = builtin_model_obj(name)?;
     obj::parse_obj(Path::new(file), &bytes, |_| Some(mtl.to_vec()))
 }
@@ -73,10 +57,7 @@ pub fn load_builtin_model(name: &str) -> Result<LoadedMesh> {
 /// Every built-in scene: `(name, one-line summary)`.
 #[must_use]
 pub fn list() -> Vec<(&'static str, String)> {
-    NAMES
-        .iter()
-        .map(|&n| (n, builtin(n).map(|d| d.summary).unwrap_or_default()))
-        .collect()
+    NAMES.iter().map(|&n| (n, builtin(n).map(|d| d.summary).unwrap_or_default())).collect()
 }
 
 const NAMES: [&str; 4] = ["tp4-sphere-flat", "tp4-sphere", "tp4-bunny", "tp4-conference"];
@@ -133,10 +114,7 @@ fn tp4_room(name: &str, model: &'static str, shading: Shading, camera: Vec3, sum
     }
     d.objects.push(ObjectDesc {
         name: format!("{model}_defaultobject"),
-        shape: ShapeDesc::Mesh {
-            source: MeshSource::Builtin(model),
-            shading,
-        },
+        shape: ShapeDesc::Mesh { source: MeshSource::Builtin(model), shading },
         material: Some("CyanColor".into()),
     });
     let planes = [
@@ -148,17 +126,9 @@ fn tp4_room(name: &str, model: &'static str, shading: Shading, camera: Vec3, sum
         ("PlaneRear", Vec3::new(0.0, 0.0, -10.0), Vec3::Z, "YellowColor"),
     ];
     for (n, p, normal, m) in planes {
-        d.objects.push(ObjectDesc {
-            name: n.to_string(),
-            shape: ShapeDesc::Plane(Plane::new(p, normal)),
-            material: Some(m.to_string()),
-        });
+        d.objects.push(ObjectDesc { name: n.to_string(), shape: ShapeDesc::Plane(Plane::new(p, normal)), material: Some(m.to_string()) });
     }
-    d.lights.push(Light::Point {
-        position: Vec3::new(0.0, 3.0, -5.0),
-        color: WHITE,
-        power: 100.0,
-    });
+    d.lights.push(Light::Point { position: Vec3::new(0.0, 3.0, -5.0), color: WHITE, power: 100.0 });
     d.integrator = Integrator::DirectLighting { light_samples: 1 };
     d.spp = 4;
     d
@@ -166,17 +136,11 @@ fn tp4_room(name: &str, model: &'static str, shading: Shading, camera: Vec3, sum
 
 /// TP4 figure 2: the conference room under a quad light.
 fn tp4_conference() -> SceneDescription {
-    let mut d = SceneDescription::new(
-        "tp4-conference",
-        CameraDesc::new(Vec3::new(-250.0, 500.0, 330.0), Vec3::new(0.0, 350.0, 100.0)),
-    );
+    let mut d = SceneDescription::new("tp4-conference", CameraDesc::new(Vec3::new(-250.0, 500.0, 330.0), Vec3::new(0.0, 350.0, 100.0)));
     d.summary = "TP4 figure 2: conference.obj (331,179 triangles) under a quad light, soft shadows".into();
     d.objects.push(ObjectDesc {
         name: "conference".into(),
-        shape: ShapeDesc::Mesh {
-            source: MeshSource::Builtin("conference"),
-            shading: Shading::Smooth,
-        },
+        shape: ShapeDesc::Mesh { source: MeshSource::Builtin("conference"), shading: Shading::Smooth },
         material: None,
     });
     d.lights.push(Light::Quad {

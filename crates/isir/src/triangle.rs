@@ -105,11 +105,7 @@ impl WatertightRay {
             std::mem::swap(&mut kx, &mut ky); // keep the winding
         }
         let shear = Vec3::new(d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]);
-        Self {
-            origin: ray.origin,
-            k: [kx, ky, kz],
-            shear,
-        }
+        Self { origin: ray.origin, k: [kx, ky, kz], shear }
     }
 
     /// The watertight test: a ray through a shared edge or vertex of a closed mesh hits at
@@ -167,10 +163,7 @@ mod tests {
     const V2: Vec3 = Vec3::new(0.0, 1.0, 0.0);
 
     fn both(ray: &Ray, t_min: f32, t_max: f32) -> (Option<TriangleHit>, Option<TriangleHit>) {
-        (
-            moller_trumbore(ray, V0, V1, V2, t_min, t_max),
-            WatertightRay::new(ray).intersect(V0, V1, V2, t_min, t_max),
-        )
+        (moller_trumbore(ray, V0, V1, V2, t_min, t_max), WatertightRay::new(ray).intersect(V0, V1, V2, t_min, t_max))
     }
 
     #[test]
@@ -179,10 +172,7 @@ mod tests {
         let ray = Ray::new(Vec3::new(0.25, 0.5, -2.0), Vec3::Z);
         for hit in [both(&ray, 0.0, f32::INFINITY).0, both(&ray, 0.0, f32::INFINITY).1] {
             let h = hit.expect("hit");
-            assert!(
-                (h.t - 2.0).abs() < 1e-6 && (h.u - 0.25).abs() < 1e-6 && (h.v - 0.5).abs() < 1e-6,
-                "{h:?}"
-            );
+            assert!((h.t - 2.0).abs() < 1e-6 && (h.u - 0.25).abs() < 1e-6 && (h.v - 0.5).abs() < 1e-6, "{h:?}");
         }
         // A direction of length 2 halves t.
         let ray = Ray::new(Vec3::new(0.25, 0.5, -2.0), Vec3::new(0.0, 0.0, 2.0));
@@ -254,19 +244,12 @@ mod tests {
     fn watertight_on_shared_edges() {
         // A square of two triangles sharing the diagonal; rays exactly on the diagonal
         // and on the shared vertex must hit one of them.
-        let (a, b, c, d) = (
-            Vec3::new(0.0, 0.0, 0.0),
-            Vec3::new(1.0, 0.0, 0.0),
-            Vec3::new(1.0, 1.0, 0.0),
-            Vec3::new(0.0, 1.0, 0.0),
-        );
+        let (a, b, c, d) = (Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 0.0, 0.0), Vec3::new(1.0, 1.0, 0.0), Vec3::new(0.0, 1.0, 0.0));
         for i in 0..=64 {
             let s = i as f32 / 64.0;
             let ray = Ray::new(Vec3::new(s, s, -1.0), Vec3::new(0.0, 0.0, 1.0));
             let w = WatertightRay::new(&ray);
-            let hit = w
-                .intersect(a, b, c, 0.0, f32::INFINITY)
-                .or(w.intersect(a, c, d, 0.0, f32::INFINITY));
+            let hit = w.intersect(a, b, c, 0.0, f32::INFINITY).or(w.intersect(a, c, d, 0.0, f32::INFINITY));
             assert!(hit.is_some(), "gap at s = {s}");
         }
     }

@@ -29,27 +29,28 @@ use crate::triangle::{moller_trumbore_edges, TriangleTest, WatertightRay};
 use glam::Vec3;
 
 /// No child in this lane.
-const EMPTY: u32 = u32::MAX;
+pub(crate) const EMPTY: u32 = u32::MAX;
 /// Set in a child code for a leaf.
-const LEAF: u32 = 1 << 31;
-const BLOCKS_SHIFT: u32 = 28;
-const FIRST_MASK: u32 = (1 << BLOCKS_SHIFT) - 1;
+pub(crate) const LEAF: u32 = 1 << 31;
+pub(crate) const BLOCKS_SHIFT: u32 = 28;
+pub(crate) const FIRST_MASK: u32 = (1 << BLOCKS_SHIFT) - 1;
 /// Leaves hold at most this many blocks of four triangles.
 const MAX_BLOCKS: usize = 8;
 /// Traversal stack entries: at most seven pushes per level.
-const STACK_SIZE: usize = 7 * crate::bvh::STACK_SIZE + 8;
+pub(crate) const STACK_SIZE: usize = 7 * crate::bvh::STACK_SIZE + 8;
 /// Box distances are widened by a few ULPs so that rounding in the box test never culls a
 /// triangle the exact test would hit (the conservative traversal of pbrt and Embree).
-const NEAR_SCALE: f32 = 1.0 - 4.0 * f32::EPSILON;
-const FAR_SCALE: f32 = 1.0 + 4.0 * f32::EPSILON;
+/// The interval `[near, far]` becomes `[near - |near|·WIDEN, far + |far|·WIDEN]`, wider
+/// whatever the signs (rays may start at a negative `t_min`).
+pub(crate) const WIDEN: f32 = 4.0 * f32::EPSILON;
 
 /// Eight child boxes (structure of arrays) and their child codes.
 #[repr(C, align(32))]
 #[derive(Clone, Copy, Debug)]
 pub struct Node8 {
-    lo: [[f32; 8]; 3],
-    hi: [[f32; 8]; 3],
-    child: [u32; 8],
+    pub(crate) lo: [[f32; 8]; 3],
+    pub(crate) hi: [[f32; 8]; 3],
+    pub(crate) child: [u32; 8],
 }
 
 const _: () = assert!(std::mem::size_of::<Node8>() == 224);
@@ -58,10 +59,10 @@ const _: () = assert!(std::mem::size_of::<Node8>() == 224);
 #[repr(C, align(16))]
 #[derive(Clone, Copy, Debug)]
 pub struct Tri4 {
-    v0: [[f32; 4]; 3],
-    e1: [[f32; 4]; 3],
-    e2: [[f32; 4]; 3],
-    prim: [u32; 4],
+    pub(crate) v0: [[f32; 4]; 3],
+    pub(crate) e1: [[f32; 4]; 3],
+    pub(crate) e2: [[f32; 4]; 3],
+    pub(crate) prim: [u32; 4],
 }
 
 const _: () = assert!(std::mem::size_of::<Tri4>() == 160);
@@ -127,13 +128,13 @@ pub struct TraversalStats {
 /// The wide BVH of a mesh.
 #[derive(Clone, Debug)]
 pub struct WideBvh {
-    nodes: Vec<Node8>,
-    tris: Vec<Tri4>,
-    root: u32,
+    pub(crate) nodes: Vec<Node8>,
+    pub(crate) tris: Vec<Tri4>,
+    pub(crate) root: u32,
     /// Levels of wide nodes (bounded so the traversal stack cannot overflow).
     depth: usize,
     /// Blocks hold `v0, v1, v2` for the watertight test instead of `v0, e1, e2`.
-    watertight: bool,
+    pub(crate) watertight: bool,
     sah_cost: f32,
     level: SimdLevel,
 }
@@ -155,11 +156,7 @@ impl WideBvh {
             w.nodes.reserve(bvh.nodes.len() / 4 + 1);
             w.tris.reserve(bvh.prim_indices.len() / 3 + 1);
             w.root = w.convert(bvh, mesh, 0, 1);
-            assert!(
-                w.depth * 7 + 8 <= STACK_SIZE,
-                "wide BVH too deep ({}) for the traversal stack",
-                w.depth
-            );
+            assert!(w.depth * 7 + 8 <= STACK_SIZE, "wide BVH too deep ({}) for the traversal stack", w.depth);
         }
         w
     }
@@ -218,11 +215,7 @@ impl WideBvh {
             kids.push(c + 1);
         }
         let slot = self.nodes.len();
-        self.nodes.push(Node8 {
-            lo: [[f32::INFINITY; 8]; 3],
-            hi: [[f32::NEG_INFINITY; 8]; 3],
-            child: [EMPTY; 8],
-        });
+        self.nodes.push(Node8 { lo: [[f32::INFINITY; 8]; 3], hi: [[f32::NEG_INFINITY; 8]; 3], child: [EMPTY; 8] });
         for (lane, &k) in kids.iter().enumerate() {
             let code = self.convert(bvh, mesh, k, depth + 1);
             let b = bvh.nodes[k].aabb();
@@ -242,12 +235,7 @@ impl WideBvh {
         let blocks = prims.len().div_ceil(4);
         assert!(blocks <= MAX_BLOCKS && first <= FIRST_MASK, "leaf too large for the wide layout");
         for chunk in prims.chunks(4) {
-            let mut t = Tri4 {
-                v0: [[f32::NAN; 4]; 3],
-                e1: [[f32::NAN; 4]; 3],
-                e2: [[f32::NAN; 4]; 3],
-                prim: [EMPTY; 4],
-            };
+            let mut t = Tri4 { v0: [[f32::NAN; 4]; 3], e1: [[f32::NAN; 4]; 3], e2: [[f32::NAN; 4]; 3], prim: [EMPTY; 4] };
             for (lane, &p) in chunk.iter().enumerate() {
                 let [a, b, c] = mesh.triangle_vertices(p);
                 // The same subtractions as `moller_trumbore`, so results are bit-identical.
@@ -284,7 +272,8 @@ impl WideBvh {
             return None;
         }
         match self.level {
-            SimdLevel::Scalar => self.traverse::<false, false, STATS>(ray, t_min, t_max, stats),
+            // SAFETY: the scalar instantiation runs no SIMD instruction beyond SSE2.
+            SimdLevel::Scalar => unsafe { self.traverse::<false, false, STATS>(ray, t_min, t_max, stats) },
             #[cfg(target_arch = "x86_64")]
             // SAFETY: `level` is only ever set to a level `SimdLevel::available` reported.
             SimdLevel::Avx2 => unsafe { self.traverse_avx2::<false, STATS>(ray, t_min, t_max, stats) },
@@ -302,7 +291,8 @@ impl WideBvh {
             return false;
         }
         let hit = match self.level {
-            SimdLevel::Scalar => self.traverse::<false, true, STATS>(ray, t_min, t_max, stats),
+            // SAFETY: the scalar instantiation runs no SIMD instruction beyond SSE2.
+            SimdLevel::Scalar => unsafe { self.traverse::<false, true, STATS>(ray, t_min, t_max, stats) },
             #[cfg(target_arch = "x86_64")]
             // SAFETY: `level` is only ever set to a level `SimdLevel::available` reported.
             SimdLevel::Avx2 => unsafe { self.traverse_avx2::<true, STATS>(ray, t_min, t_max, stats) },
@@ -341,8 +331,11 @@ impl WideBvh {
 
     /// The traversal loop. `SIMD` selects the x86 kernels (only inlined into functions
     /// compiled with AVX2); `ANY` stops at the first hit.
+    ///
+    /// # Safety
+    /// With `SIMD`, the CPU must have AVX2 and FMA.
     #[inline(always)]
-    fn traverse<const SIMD: bool, const ANY: bool, const STATS: bool>(
+    unsafe fn traverse<const SIMD: bool, const ANY: bool, const STATS: bool>(
         &self,
         ray: &Ray,
         t_min: f32,
@@ -417,8 +410,10 @@ impl WideBvh {
                     cur = order[n - 1].1;
                     continue;
                 }
-            } else {
+            } else if cur != EMPTY {
                 // ---- Leaf: blocks of four triangles ----
+                // (`EMPTY` has the leaf bit set; the inverted boxes of empty lanes never
+                // pass the box test, and this check makes sure it could not matter.)
                 let first = (cur & FIRST_MASK) as usize;
                 let blocks = ((cur >> BLOCKS_SHIFT) & 0x7) as usize + 1;
                 debug_assert!(first + blocks <= self.tris.len());
@@ -479,13 +474,7 @@ impl RayPre {
         let safe = |d: f32| if d.abs() < 1e-30 { 1e-30f32.copysign(d) } else { d };
         let d = ray.direction;
         let inv = Vec3::new(1.0 / safe(d.x), 1.0 / safe(d.y), 1.0 / safe(d.z));
-        Self {
-            origin: ray.origin,
-            dir: d,
-            inv,
-            org_inv: ray.origin * inv,
-            neg: [inv.x < 0.0, inv.y < 0.0, inv.z < 0.0],
-        }
+        Self { origin: ray.origin, dir: d, inv, org_inv: ray.origin * inv, neg: [inv.x < 0.0, inv.y < 0.0, inv.z < 0.0] }
     }
 }
 
@@ -497,17 +486,14 @@ fn box_test_scalar(node: &Node8, pre: &RayPre, t_min: f32, t_max: f32, dist: &mu
         let mut near = t_min;
         let mut far = t_max;
         for axis in 0..3 {
-            let (n, f) = if pre.neg[axis] {
-                (node.hi[axis][lane], node.lo[axis][lane])
-            } else {
-                (node.lo[axis][lane], node.hi[axis][lane])
-            };
+            let (n, f) =
+                if pre.neg[axis] { (node.hi[axis][lane], node.lo[axis][lane]) } else { (node.lo[axis][lane], node.hi[axis][lane]) };
             near = near.max((n - pre.origin[axis]) * pre.inv[axis]);
             far = far.min((f - pre.origin[axis]) * pre.inv[axis]);
         }
-        let near = near * NEAR_SCALE;
+        let near = near - near.abs() * WIDEN;
         dist[lane] = near;
-        if near <= far * FAR_SCALE {
+        if near <= far + far.abs() * WIDEN {
             mask |= 1 << lane;
         }
     }
@@ -524,12 +510,7 @@ fn tri4_scalar(tri: &Tri4, ray: &Ray, t_min: f32, t_max: f32) -> Option<MeshHit>
         let get = |a: &[[f32; 4]; 3]| Vec3::new(a[0][lane], a[1][lane], a[2][lane]);
         let limit = best.map_or(t_max, |b| b.t);
         if let Some(h) = moller_trumbore_edges(ray, get(&tri.v0), get(&tri.e1), get(&tri.e2), t_min, limit) {
-            best = Some(MeshHit {
-                t: h.t,
-                prim: tri.prim[lane],
-                u: h.u,
-                v: h.v,
-            });
+            best = Some(MeshHit { t: h.t, prim: tri.prim[lane], u: h.u, v: h.v });
         }
     }
     best
@@ -546,32 +527,27 @@ fn tri4_watertight(tri: &Tri4, w: &WatertightRay, t_min: f32, t_max: f32) -> Opt
         let get = |a: &[[f32; 4]; 3]| Vec3::new(a[0][lane], a[1][lane], a[2][lane]);
         let limit = best.map_or(t_max, |b| b.t);
         if let Some(h) = w.intersect(get(&tri.v0), get(&tri.e1), get(&tri.e2), t_min, limit) {
-            best = Some(MeshHit {
-                t: h.t,
-                prim: tri.prim[lane],
-                u: h.u,
-                v: h.v,
-            });
+            best = Some(MeshHit { t: h.t, prim: tri.prim[lane], u: h.u, v: h.v });
         }
     }
     best
 }
 
+/// The slab test of one ray against a node's eight boxes.
+///
+/// # Safety
+/// The CPU must have AVX2 and FMA.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-fn box_test_avx2(node: &Node8, pre: &RayPre, t_min: f32, t_max: f32, dist: &mut [f32; 8]) -> u32 {
+unsafe fn box_test_avx2(node: &Node8, pre: &RayPre, t_min: f32, t_max: f32, dist: &mut [f32; 8]) -> u32 {
     use std::arch::x86_64::*;
-    // SAFETY: only reached from functions compiled with AVX2 and FMA, which the caller
-    // checked the CPU has; `Node8` is 32-byte aligned so the aligned loads are valid.
+    // SAFETY: the caller guarantees AVX2 and FMA; `Node8` is 32-byte aligned so the
+    // aligned loads are valid.
     unsafe {
         let mut near = _mm256_set1_ps(t_min);
         let mut far = _mm256_set1_ps(t_max);
         for axis in 0..3 {
-            let (n, f) = if pre.neg[axis] {
-                (&node.hi[axis], &node.lo[axis])
-            } else {
-                (&node.lo[axis], &node.hi[axis])
-            };
+            let (n, f) = if pre.neg[axis] { (&node.hi[axis], &node.lo[axis]) } else { (&node.lo[axis], &node.hi[axis]) };
             let inv = _mm256_set1_ps(pre.inv[axis]);
             let oi = _mm256_set1_ps(pre.org_inv[axis]);
             let tn = _mm256_fmsub_ps(_mm256_load_ps(n.as_ptr()), inv, oi);
@@ -579,8 +555,10 @@ fn box_test_avx2(node: &Node8, pre: &RayPre, t_min: f32, t_max: f32, dist: &mut 
             near = _mm256_max_ps(near, tn);
             far = _mm256_min_ps(far, tf);
         }
-        near = _mm256_mul_ps(near, _mm256_set1_ps(NEAR_SCALE));
-        far = _mm256_mul_ps(far, _mm256_set1_ps(FAR_SCALE));
+        let widen = _mm256_set1_ps(WIDEN);
+        let sign = _mm256_set1_ps(-0.0);
+        near = _mm256_fnmadd_ps(_mm256_andnot_ps(sign, near), widen, near);
+        far = _mm256_fmadd_ps(_mm256_andnot_ps(sign, far), widen, far);
         _mm256_storeu_ps(dist.as_mut_ptr(), near);
         _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, far)) as u32
     }
@@ -588,7 +566,7 @@ fn box_test_avx2(node: &Node8, pre: &RayPre, t_min: f32, t_max: f32, dist: &mut 
 
 #[cfg(not(target_arch = "x86_64"))]
 #[inline(always)]
-fn box_test_avx2(node: &Node8, pre: &RayPre, t_min: f32, t_max: f32, dist: &mut [f32; 8]) -> u32 {
+unsafe fn box_test_avx2(node: &Node8, pre: &RayPre, t_min: f32, t_max: f32, dist: &mut [f32; 8]) -> u32 {
     box_test_scalar(node, pre, t_min, t_max, dist)
 }
 
@@ -650,12 +628,7 @@ fn tri4_sse(tri: &Tri4, pre: &RayPre, t_min: f32, t_max: f32) -> Option<MeshHit>
                 lane = l;
             }
         }
-        Some(MeshHit {
-            t: ts[lane],
-            prim: tri.prim[lane],
-            u: us[lane],
-            v: vs[lane],
-        })
+        Some(MeshHit { t: ts[lane], prim: tri.prim[lane], u: us[lane], v: vs[lane] })
     }
 }
 

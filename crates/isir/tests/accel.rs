@@ -50,17 +50,10 @@ fn check_mesh(mut mesh: TriangleMesh, rays: &[Ray]) {
                 for (ray, want) in rays.iter().zip(&reference) {
                     let got = w.intersect(ray, 0.0, f32::INFINITY);
                     same_hit(&got, want, &label, ray);
-                    assert_eq!(
-                        w.occluded(ray, 0.0, f32::INFINITY),
-                        want.is_some(),
-                        "{label}: any-hit disagrees for {ray:?}"
-                    );
+                    assert_eq!(w.occluded(ray, 0.0, f32::INFINITY), want.is_some(), "{label}: any-hit disagrees for {ray:?}");
                     if let Some(h) = want {
-                        // Shortened to just before the hit: nothing may block it.
-                        assert!(
-                            !w.occluded(ray, 0.0, h.t * 0.999) || got.is_some_and(|g| g.t < h.t * 0.999),
-                            "{label}"
-                        );
+                        // Shortened to just before the closest hit: nothing may block it.
+                        assert!(!w.occluded(ray, 0.0, h.t * 0.999), "{label}: any-hit before the closest hit for {ray:?}");
                     }
                 }
                 continue;
@@ -69,11 +62,7 @@ fn check_mesh(mut mesh: TriangleMesh, rays: &[Ray]) {
             for (ray, want) in rays.iter().zip(&reference) {
                 let got = m.intersect(ray, 0.0, f32::INFINITY);
                 same_hit(&got, want, &label, ray);
-                assert_eq!(
-                    m.occluded(ray, 0.0, f32::INFINITY),
-                    want.is_some(),
-                    "{label}: any-hit disagrees for {ray:?}"
-                );
+                assert_eq!(m.occluded(ray, 0.0, f32::INFINITY), want.is_some(), "{label}: any-hit disagrees for {ray:?}");
             }
         }
     }
@@ -113,14 +102,7 @@ fn conference_every_accel_matches_brute_force() {
 
 #[test]
 fn degenerate_meshes_and_rays_never_panic_nor_hit_wrongly() {
-    let v = vec![
-        Vec3::ZERO,
-        Vec3::X,
-        Vec3::Y,
-        Vec3::new(2.0, 0.0, 0.0),
-        Vec3::new(f32::NAN, 0.0, 0.0),
-        Vec3::new(0.0, 0.0, f32::INFINITY),
-    ];
+    let v = vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::new(2.0, 0.0, 0.0), Vec3::new(f32::NAN, 0.0, 0.0), Vec3::new(0.0, 0.0, f32::INFINITY)];
     // Zero-area, collinear, NaN and infinite triangles, and one good one last.
     let tris = vec![[0, 0, 1], [0, 1, 3], [0, 4, 2], [0, 1, 5], [0, 1, 2]];
     let bad_rays = [
@@ -210,10 +192,7 @@ fn watertight_rays_through_vertices_and_edges_of_a_closed_mesh_all_hit() {
     }
     // Möller–Trumbore does let some through (351 of 3,840 when measured): the test can fail.
     mesh.build_accel(Accel::None);
-    let mt_misses = targets
-        .iter()
-        .filter(|&&p| mesh.intersect(&Ray::new(centre, p - centre), 0.0, f32::INFINITY).is_none())
-        .count();
+    let mt_misses = targets.iter().filter(|&&p| mesh.intersect(&Ray::new(centre, p - centre), 0.0, f32::INFINITY).is_none()).count();
     assert!(mt_misses > 0, "expected Möller–Trumbore to miss some edge rays");
     mesh.triangle_test = isir::triangle::TriangleTest::Watertight;
     for accel in Accel::ALL {
@@ -229,17 +208,61 @@ fn watertight_rays_through_vertices_and_edges_of_a_closed_mesh_all_hit() {
                 w.set_level(l);
                 m.set_wide(w);
             }
-            let misses = targets
-                .iter()
-                .filter(|&&p| m.intersect(&Ray::new(centre, p - centre), 0.0, f32::INFINITY).is_none())
-                .count();
-            assert_eq!(
-                misses,
-                0,
-                "{} {level:?}: {misses} of {} rays slipped through",
-                accel.name(),
-                targets.len()
-            );
+            let misses = targets.iter().filter(|&&p| m.intersect(&Ray::new(centre, p - centre), 0.0, f32::INFINITY).is_none()).count();
+            assert_eq!(misses, 0, "{} {level:?}: {misses} of {} rays slipped through", accel.name(), targets.len());
         }
+    }
+}
+
+#[test]
+fn packets_return_the_same_hits_as_single_rays() {
+    use isir::rays::{generate, trace_mesh, trace_mesh_packets, HitRecord, RayKind, RayRecord};
+    let desc = isir::scenes::builtin("tp4-conference").unwrap();
+    let scene = desc.build(Accel::BvhSah).unwrap();
+    let (_, mesh) = scene.meshes().next().unwrap();
+    // Coherent camera rays (the packets' case), diffuse rays (mixed signs: the fallback),
+    // and odd ones: invalid rays and short intervals inside a packet, a partial last packet.
+    let mut rays: Vec<RayRecord> = generate(&scene, &desc.camera.build(1.5), 64, 40, RayKind::Primary, 1).unwrap();
+    rays.extend(generate(&scene, &desc.camera.build(1.5), 32, 20, RayKind::Diffuse, 1).unwrap());
+    for i in (0..rays.len()).step_by(37) {
+        rays[i].t_max = 300.0;
+    }
+    rays[5].direction = Vec3::ZERO;
+    rays[21].origin.x = f32::NAN;
+    // A whole packet with a -0.0 component (its octant must follow the sign bit) and one
+    // with +0.0.
+    for r in &mut rays[32..48] {
+        r.direction.x = -0.0;
+    }
+    for r in &mut rays[48..64] {
+        r.direction.y = 0.0;
+    }
+    rays.truncate(rays.len() - 5);
+    let mut single = vec![HitRecord::MISS; rays.len()];
+    let mut packed = single.clone();
+    if !SimdLevel::available().contains(&SimdLevel::Avx512) {
+        eprintln!("note: no AVX-512 on this CPU: packets fall back to single rays, which this test still checks");
+    }
+    for level in SimdLevel::available() {
+        let mut m = mesh.clone();
+        if let MeshAccel::Wide(w) = m.accel() {
+            let mut w = w.clone();
+            w.set_level(level);
+            m.set_wide(w);
+        }
+        trace_mesh(&m, &rays, false, &mut single);
+        trace_mesh_packets(&m, &rays, &mut packed);
+        let mut ties = 0;
+        for (i, (s, p)) in single.iter().zip(&packed).enumerate() {
+            assert_eq!(s.t.to_bits(), p.t.to_bits(), "{level:?} ray {i}: {s:?} vs {p:?}");
+            if s.prim != p.prim {
+                ties += 1;
+            } else {
+                assert_eq!((s.u, s.v), (p.u, p.v), "{level:?} ray {i}");
+            }
+        }
+        assert!(ties * 1000 < rays.len(), "{level:?}: {ties} ties");
+        assert!(!packed[5].is_hit() && !packed[21].is_hit());
+        assert!(packed.iter().filter(|h| h.is_hit()).count() > rays.len() / 2);
     }
 }

@@ -31,32 +31,27 @@ fn every_builtin_scene_renders_something() {
         let distinct: std::collections::HashSet<[u32; 3]> =
             img.pixels.iter().map(|c| [c.x.to_bits(), c.y.to_bits(), c.z.to_bits()]).collect();
         assert!(distinct.len() > 20, "{name}: only {} distinct colours", distinct.len());
-        assert!(
-            img.pixels.iter().filter(|&&c| c != GREY).count() > img.pixels.len() / 2,
-            "{name} is mostly background"
-        );
+        assert!(img.pixels.iter().filter(|&&c| c != GREY).count() > img.pixels.len() / 2, "{name} is mostly background");
         assert!(img.pixels.iter().all(|c| c.is_finite()), "{name} has non-finite pixels");
     }
 }
 
 #[test]
 fn same_image_on_one_and_two_threads() {
-    // The conference room: area light sampling and jittered pixels use random numbers.
+    // The conference room: area light sampling and jittered pixels use random numbers, and
+    // the BVH is built in parallel; both happen inside each pool.
     let desc = scenes::builtin("tp4-conference").unwrap();
-    let scene = desc.build(Accel::BvhSah).unwrap();
     let r = Renderer::new(64, 48).spp(3).seed(7);
     let cam = desc.camera.build(r.aspect());
     let integrator = Integrator::DirectLighting { light_samples: 3 };
-    let one = rayon::ThreadPoolBuilder::new()
-        .num_threads(1)
-        .build()
-        .unwrap()
-        .install(|| r.render(&scene, &cam, &integrator));
-    let two = rayon::ThreadPoolBuilder::new()
-        .num_threads(2)
-        .build()
-        .unwrap()
-        .install(|| r.render(&scene, &cam, &integrator));
+    let run = |threads: usize| {
+        rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap().install(|| {
+            let scene = desc.build(Accel::BvhSah).unwrap();
+            r.render(&scene, &cam, &integrator)
+        })
+    };
+    let (one, two) = (run(1), run(2));
+    let scene = desc.build(Accel::BvhSah).unwrap();
     assert_eq!(one.0.to_rgb8(desc.display), two.0.to_rgb8(desc.display));
     assert_eq!(one.0.pixels, two.0.pixels, "float pixels differ");
     assert_eq!(one.1.rays, two.1.rays);
@@ -91,20 +86,12 @@ fn bunny_keeps_its_file_material_despite_tr_1() {
     let mut desc = scenes::builtin("tp4-bunny").unwrap();
     desc.objects[0] = ObjectDesc {
         name: "Bunny".into(),
-        shape: ShapeDesc::Mesh {
-            source: MeshSource::Builtin("Bunny"),
-            shading: Default::default(),
-        },
+        shape: ShapeDesc::Mesh { source: MeshSource::Builtin("Bunny"), shading: Default::default() },
         material: None,
     };
     let scene = desc.build(Accel::BvhSah).unwrap();
-    let ray = isir::Ray::new(
-        Vec3::new(0.0, 2.0, -7.0),
-        (Vec3::new(0.0, 0.0, 0.0) - Vec3::new(0.0, 2.0, -7.0)).normalize(),
-    );
-    let hit = scene
-        .intersect(&ray, 0.0, f32::INFINITY)
-        .expect("the bunny is in front of the camera");
+    let ray = isir::Ray::new(Vec3::new(0.0, 2.0, -7.0), (Vec3::new(0.0, 0.0, 0.0) - Vec3::new(0.0, 2.0, -7.0)).normalize());
+    let hit = scene.intersect(&ray, 0.0, f32::INFINITY).expect("the bunny is in front of the camera");
     assert_eq!(scene.objects[hit.object as usize].name, "Bunny");
     assert_eq!(scene.material(&hit).flat_color(), Vec3::new(0.7, 0.0, 0.7));
 }

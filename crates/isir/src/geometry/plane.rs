@@ -16,10 +16,7 @@ impl Plane {
     /// The plane through `point` with normal `normal` (normalized here).
     #[must_use]
     pub fn new(point: Vec3, normal: Vec3) -> Self {
-        Self {
-            point,
-            normal: normal.normalize(),
-        }
+        Self { point, normal: normal.normalize() }
     }
 
     /// `t` in `[t_min, t_max)` where the ray meets the plane; none when parallel.
@@ -42,10 +39,7 @@ mod tests {
     fn both_sides_and_parallel() {
         let p = Plane::new(Vec3::new(0.0, -3.0, 0.0), Vec3::Y);
         assert_eq!(p.intersect(&Ray::new(Vec3::ZERO, -Vec3::Y), 0.0, f32::INFINITY), Some(3.0));
-        assert_eq!(
-            p.intersect(&Ray::new(Vec3::new(0.0, -5.0, 0.0), Vec3::Y), 0.0, f32::INFINITY),
-            Some(2.0)
-        );
+        assert_eq!(p.intersect(&Ray::new(Vec3::new(0.0, -5.0, 0.0), Vec3::Y), 0.0, f32::INFINITY), Some(2.0));
         assert_eq!(p.intersect(&Ray::new(Vec3::ZERO, Vec3::X), 0.0, f32::INFINITY), None);
         assert_eq!(p.intersect(&Ray::new(Vec3::ZERO, Vec3::Y), 0.0, f32::INFINITY), None);
     }

@@ -31,9 +31,7 @@ impl Sphere {
             return None;
         }
         let sq = disc.sqrt();
-        [(-half_b - sq) / a, (-half_b + sq) / a]
-            .into_iter()
-            .find(|&t| t >= t_min && t < t_max)
+        [(-half_b - sq) / a, (-half_b + sq) / a].into_iter().find(|&t| t >= t_min && t < t_max)
     }
 
     /// Outward unit normal at a point of the sphere.

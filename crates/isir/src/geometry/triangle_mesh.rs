@@ -117,11 +117,7 @@ impl TriangleMesh {
             .collect();
         let degenerate = valid.iter().filter(|v| !**v).count();
         let material_slots = vec![0; triangles.len()];
-        let stats = MeshStats {
-            triangles: triangles.len(),
-            degenerate,
-            ..MeshStats::default()
-        };
+        let stats = MeshStats { triangles: triangles.len(), degenerate, ..MeshStats::default() };
         Self {
             vertices,
             normals,
@@ -217,12 +213,7 @@ impl TriangleMesh {
             TriangleTest::MollerTrumbore => moller_trumbore(ray, a, b, c, t_min, t_max),
             TriangleTest::Watertight => WatertightRay::new(ray).intersect(a, b, c, t_min, t_max),
         };
-        hit.map(|h| MeshHit {
-            t: h.t,
-            prim,
-            u: h.u,
-            v: h.v,
-        })
+        hit.map(|h| MeshHit { t: h.t, prim, u: h.u, v: h.v })
     }
 
     /// Every triangle, in order: the reference the acceleration structures are tested against.
@@ -275,9 +266,7 @@ impl TriangleMesh {
                     && self.aabb.intersect(ray, t_min, t_max).is_some()
                     && (0..self.triangles.len() as u32).any(|p| self.hit_triangle(ray, p, t_min, t_max).is_some())
             }
-            MeshAccel::Bvh(bvh) => bvh.occluded(ray, t_min, t_max, |prim, t_max| {
-                self.hit_triangle(ray, prim, t_min, t_max).is_some()
-            }),
+            MeshAccel::Bvh(bvh) => bvh.occluded(ray, t_min, t_max, |prim, t_max| self.hit_triangle(ray, prim, t_min, t_max).is_some()),
             MeshAccel::Wide(w) => w.occluded(ray, t_min, t_max),
         }
     }

@@ -1,0 +1,224 @@
+//! Packets: sixteen coherent rays traced together through the [`WideBvh`] with AVX-512,
+//! one lane per ray (Wald et al.'s packet traversal, on eight-wide nodes as in Embree's
+//! stream mode). Each node's boxes and each triangle are fetched once for the sixteen.
+//!
+//! Used for coherent rays (camera rays of neighbouring pixels). Rays whose direction signs
+//! differ within the packet, a watertight BVH, or a CPU without AVX-512 fall back to one
+//! ray at a time. Möller–Trumbore is computed operation for operation as in
+//! [`crate::triangle::moller_trumbore`], so packets return the same hits as single rays.
+
+use crate::geometry::MeshHit;
+use crate::rays::RayRecord;
+use crate::wide::{SimdLevel, WideBvh};
+
+/// Rays per packet.
+pub const PACKET: usize = 16;
+
+impl WideBvh {
+    /// Closest hits of up to [`PACKET`] rays (`out[i]` for `rays[i]`).
+    ///
+    /// # Panics
+    /// If `rays` holds more than [`PACKET`] rays or `out` is shorter than `rays`.
+    pub fn intersect_packet(&self, rays: &[RayRecord], out: &mut [Option<MeshHit>]) {
+        assert!(rays.len() <= PACKET && out.len() >= rays.len());
+        #[cfg(target_arch = "x86_64")]
+        if self.level() == SimdLevel::Avx512 && !self.watertight && self.root != crate::wide::EMPTY {
+            // SAFETY: the level is only ever Avx512 when the CPU reported AVX-512.
+            if unsafe { self.packet_avx512(rays, out) } {
+                return;
+            }
+        }
+        for (r, o) in rays.iter().zip(out.iter_mut()) {
+            *o = self.intersect(&r.ray(), r.t_min, r.t_max);
+        }
+    }
+
+    /// The AVX-512 packet traversal; false (nothing written) when the rays' direction
+    /// signs differ, which the octant-ordered box test cannot handle.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
+    unsafe fn packet_avx512(&self, rays: &[RayRecord], out: &mut [Option<MeshHit>]) -> bool {
+        use crate::wide::{BLOCKS_SHIFT, EMPTY, FIRST_MASK, LEAF, STACK_SIZE, WIDEN};
+        use std::arch::x86_64::*;
+
+        // ---- Load the packet as structure of arrays ----
+        let safe = |d: f32| if d.abs() < 1e-30 { 1e-30f32.copysign(d) } else { d };
+        let mut a = [[0f32; PACKET]; 11]; // ox oy oz dx dy dz ix iy iz tmin tmax
+        let mut active: u16 = 0;
+        let mut neg: Option<[bool; 3]> = None;
+        for (i, r) in rays.iter().enumerate() {
+            out[i] = None;
+            if !r.ray().is_valid() {
+                continue;
+            }
+            let d = r.direction;
+            let inv = [1.0 / safe(d.x), 1.0 / safe(d.y), 1.0 / safe(d.z)];
+            // The octant from the inverse (which keeps the sign of -0.0), as the box test
+            // uses it.
+            let signs = [inv[0] < 0.0, inv[1] < 0.0, inv[2] < 0.0];
+            match neg {
+                None => neg = Some(signs),
+                Some(n) if n != signs => return false,
+                _ => {}
+            }
+            let v = [r.origin.x, r.origin.y, r.origin.z, d.x, d.y, d.z, inv[0], inv[1], inv[2], r.t_min, r.t_max];
+            for (k, x) in v.into_iter().enumerate() {
+                a[k][i] = x;
+            }
+            active |= 1 << i;
+        }
+        let Some(neg) = neg else { return true };
+        // SAFETY: AVX-512 is enabled for this function (the caller checked the CPU) and the
+        // unaligned loads read arrays of exactly 16 floats.
+        let ld = |x: &[f32; PACKET]| _mm512_loadu_ps(x.as_ptr());
+        let (ox, oy, oz) = (ld(&a[0]), ld(&a[1]), ld(&a[2]));
+        let (dx, dy, dz) = (ld(&a[3]), ld(&a[4]), ld(&a[5]));
+        let inv = [ld(&a[6]), ld(&a[7]), ld(&a[8])];
+        let oinv = [_mm512_mul_ps(ox, inv[0]), _mm512_mul_ps(oy, inv[1]), _mm512_mul_ps(oz, inv[2])];
+        let t_min = ld(&a[9]);
+        let mut t_best = ld(&a[10]);
+        let mut prim = _mm512_set1_epi32(-1);
+        let mut hu = _mm512_setzero_ps();
+        let mut hv = _mm512_setzero_ps();
+        let widen = _mm512_set1_ps(WIDEN);
+
+        // The stack keeps, per entry, the node, the rays that entered its box and their
+        // entry distances, to cull rays whose closest hit has moved in front since.
+        let mut codes = [0u32; STACK_SIZE];
+        let mut masks = [0u16; STACK_SIZE];
+        let mut nears = [const { std::mem::MaybeUninit::<__m512>::uninit() }; STACK_SIZE];
+        let mut sp = 0usize;
+        let mut cur = self.root;
+        let mut cur_mask = active;
+        loop {
+            if cur & LEAF == 0 {
+                // ---- Inner node: eight boxes, each against sixteen rays ----
+                // SAFETY: inner-node codes are indices into `nodes`, written by `convert`.
+                let node = self.nodes.get_unchecked(cur as usize);
+                let mut order = [(0f32, 0u32, 0u16, _mm512_setzero_ps()); 8];
+                let mut n = 0;
+                for c in 0..8 {
+                    let code = node.child[c];
+                    if code == EMPTY {
+                        continue;
+                    }
+                    let mut near = t_min;
+                    let mut far = t_best;
+                    for axis in 0..3 {
+                        let (nb, fb) = if neg[axis] { (node.hi[axis][c], node.lo[axis][c]) } else { (node.lo[axis][c], node.hi[axis][c]) };
+                        near = _mm512_max_ps(near, _mm512_fmsub_ps(_mm512_set1_ps(nb), inv[axis], oinv[axis]));
+                        far = _mm512_min_ps(far, _mm512_fmsub_ps(_mm512_set1_ps(fb), inv[axis], oinv[axis]));
+                    }
+                    // Widened as in the single-ray test, whatever the signs.
+                    near = _mm512_fnmadd_ps(_mm512_abs_ps(near), widen, near);
+                    far = _mm512_fmadd_ps(_mm512_abs_ps(far), widen, far);
+                    let m = _mm512_mask_cmp_ps_mask::<_CMP_LE_OQ>(cur_mask, near, far);
+                    if m == 0 {
+                        continue;
+                    }
+                    // Order by the entry distance of the first ray that enters.
+                    let first = _mm512_cvtss_f32(_mm512_maskz_compress_ps(m, near));
+                    let item = (first, code, m, near);
+                    let mut j = n;
+                    while j > 0 && order[j - 1].0 < item.0 {
+                        order[j] = order[j - 1];
+                        j -= 1;
+                    }
+                    order[j] = item;
+                    n += 1;
+                }
+                if n > 0 {
+                    for &(_, code, m, near) in &order[..n - 1] {
+                        // SAFETY: sp < STACK_SIZE: at most seven pushes per level, and `from_bvh`
+                        // checked `7 · depth + 8 <= STACK_SIZE`.
+                        debug_assert!(sp < STACK_SIZE);
+                        *codes.get_unchecked_mut(sp) = code;
+                        *masks.get_unchecked_mut(sp) = m;
+                        nears.get_unchecked_mut(sp).write(near);
+                        sp += 1;
+                    }
+                    cur = order[n - 1].1;
+                    cur_mask = order[n - 1].2;
+                    continue;
+                }
+            } else if cur != EMPTY {
+                // ---- Leaf: each triangle against the rays that reached it ----
+                let first = (cur & FIRST_MASK) as usize;
+                let blocks = ((cur >> BLOCKS_SHIFT) & 0x7) as usize + 1;
+                for b in first..first + blocks {
+                    // SAFETY: leaf codes index `tris` (`make_leaf` wrote them).
+                    let tri = self.tris.get_unchecked(b);
+                    for lane in 0..4 {
+                        let id = tri.prim[lane];
+                        if id == EMPTY {
+                            break;
+                        }
+                        let s = |x: &[[f32; 4]; 3], k: usize| _mm512_set1_ps(x[k][lane]);
+                        let (e1x, e1y, e1z) = (s(&tri.e1, 0), s(&tri.e1, 1), s(&tri.e1, 2));
+                        let (e2x, e2y, e2z) = (s(&tri.e2, 0), s(&tri.e2, 1), s(&tri.e2, 2));
+                        let mul = |x, y| _mm512_mul_ps(x, y);
+                        let sub = |x, y| _mm512_sub_ps(x, y);
+                        let add = |x, y| _mm512_add_ps(x, y);
+                        // p = d × e2
+                        let px = sub(mul(dy, e2z), mul(dz, e2y));
+                        let py = sub(mul(dz, e2x), mul(dx, e2z));
+                        let pz = sub(mul(dx, e2y), mul(dy, e2x));
+                        let det = add(add(mul(e1x, px), mul(e1y, py)), mul(e1z, pz));
+                        let inv_det = _mm512_div_ps(_mm512_set1_ps(1.0), det);
+                        // s = o - v0
+                        let sx = sub(ox, s(&tri.v0, 0));
+                        let sy = sub(oy, s(&tri.v0, 1));
+                        let sz = sub(oz, s(&tri.v0, 2));
+                        let u = mul(add(add(mul(sx, px), mul(sy, py)), mul(sz, pz)), inv_det);
+                        // q = s × e1
+                        let qx = sub(mul(sy, e1z), mul(sz, e1y));
+                        let qy = sub(mul(sz, e1x), mul(sx, e1z));
+                        let qz = sub(mul(sx, e1y), mul(sy, e1x));
+                        let v = mul(add(add(mul(dx, qx), mul(dy, qy)), mul(dz, qz)), inv_det);
+                        let t = mul(add(add(mul(e2x, qx), mul(e2y, qy)), mul(e2z, qz)), inv_det);
+                        let zero = _mm512_setzero_ps();
+                        let one = _mm512_set1_ps(1.0);
+                        let mut m = _mm512_mask_cmp_ps_mask::<_CMP_NEQ_OQ>(cur_mask, det, zero);
+                        m = _mm512_mask_cmp_ps_mask::<_CMP_GE_OQ>(m, u, zero);
+                        m = _mm512_mask_cmp_ps_mask::<_CMP_LE_OQ>(m, u, one);
+                        m = _mm512_mask_cmp_ps_mask::<_CMP_GE_OQ>(m, v, zero);
+                        m = _mm512_mask_cmp_ps_mask::<_CMP_LE_OQ>(m, add(u, v), one);
+                        m = _mm512_mask_cmp_ps_mask::<_CMP_GE_OQ>(m, t, t_min);
+                        m = _mm512_mask_cmp_ps_mask::<_CMP_LT_OQ>(m, t, t_best);
+                        if m != 0 {
+                            t_best = _mm512_mask_mov_ps(t_best, m, t);
+                            hu = _mm512_mask_mov_ps(hu, m, u);
+                            hv = _mm512_mask_mov_ps(hv, m, v);
+                            prim = _mm512_mask_mov_epi32(prim, m, _mm512_set1_epi32(id as i32));
+                        }
+                    }
+                }
+            }
+            // ---- Pop a node some of whose rays still enter before their closest hit ----
+            loop {
+                if sp == 0 {
+                    let (mut ts, mut us, mut vs, mut ps) = ([0f32; PACKET], [0f32; PACKET], [0f32; PACKET], [0u32; PACKET]);
+                    _mm512_storeu_ps(ts.as_mut_ptr(), t_best);
+                    _mm512_storeu_ps(us.as_mut_ptr(), hu);
+                    _mm512_storeu_ps(vs.as_mut_ptr(), hv);
+                    _mm512_storeu_si512(ps.as_mut_ptr().cast(), prim);
+                    for i in 0..rays.len() {
+                        if ps[i] != EMPTY && active & (1 << i) != 0 {
+                            out[i] = Some(MeshHit { t: ts[i], prim: ps[i], u: us[i], v: vs[i] });
+                        }
+                    }
+                    return true;
+                }
+                sp -= 1;
+                // SAFETY: every entry below the old `sp` was written by a push.
+                let near = nears.get_unchecked(sp).assume_init();
+                let m = _mm512_mask_cmp_ps_mask::<_CMP_LT_OQ>(*masks.get_unchecked(sp), near, t_best);
+                if m != 0 {
+                    cur = *codes.get_unchecked(sp);
+                    cur_mask = m;
+                    break;
+                }
+            }
+        }
+    }
+}
