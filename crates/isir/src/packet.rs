@@ -81,6 +81,7 @@ impl WideBvh {
         let mut hu = _mm512_setzero_ps();
         let mut hv = _mm512_setzero_ps();
         let widen = _mm512_set1_ps(WIDEN);
+        let nonneg_tmin = rays.iter().all(|r| r.t_min >= 0.0);
 
         // The stack keeps, per entry, the node, the rays that entered its box and their
         // entry distances, to cull rays whose closest hit has moved in front since.
@@ -109,9 +110,14 @@ impl WideBvh {
                         near = _mm512_max_ps(near, _mm512_fmsub_ps(_mm512_set1_ps(nb), inv[axis], oinv[axis]));
                         far = _mm512_min_ps(far, _mm512_fmsub_ps(_mm512_set1_ps(fb), inv[axis], oinv[axis]));
                     }
-                    // Widened as in the single-ray test, whatever the signs.
-                    near = _mm512_fnmadd_ps(_mm512_abs_ps(near), widen, near);
-                    far = _mm512_fmadd_ps(_mm512_abs_ps(far), widen, far);
+                    // Widened as in the single-ray test.
+                    if nonneg_tmin {
+                        near = _mm512_mul_ps(near, _mm512_set1_ps(1.0 - WIDEN));
+                        far = _mm512_mul_ps(far, _mm512_set1_ps(1.0 + WIDEN));
+                    } else {
+                        near = _mm512_fnmadd_ps(_mm512_abs_ps(near), widen, near);
+                        far = _mm512_fmadd_ps(_mm512_abs_ps(far), widen, far);
+                    }
                     let m = _mm512_mask_cmp_ps_mask::<_CMP_LE_OQ>(cur_mask, near, far);
                     if m == 0 {
                         continue;
@@ -141,8 +147,10 @@ impl WideBvh {
                     cur_mask = order[n - 1].2;
                     continue;
                 }
-            } else if cur != EMPTY {
+            } else {
                 // ---- Leaf: each triangle against the rays that reached it ----
+                // (Empty lanes are skipped when children are pushed.)
+                debug_assert!(cur != EMPTY);
                 let first = (cur & FIRST_MASK) as usize;
                 let blocks = ((cur >> BLOCKS_SHIFT) & 0x7) as usize + 1;
                 for b in first..first + blocks {

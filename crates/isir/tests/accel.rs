@@ -266,3 +266,23 @@ fn packets_return_the_same_hits_as_single_rays() {
         assert!(packed.iter().filter(|h| h.is_hit()).count() > rays.len() / 2);
     }
 }
+
+#[test]
+fn negative_t_min_finds_hits_behind_the_origin_on_every_path() {
+    // RAYS.md allows any t_min: the interval [-r, r) around an origin inside the bunny's
+    // box reaches triangles on both sides.
+    let mut mesh = bunny();
+    let r = mesh.aabb().diagonal().length();
+    let rays: Vec<Ray> = random_rays(&mesh, 400, 9).into_iter().step_by(4).collect(); // origins inside the box
+    let reference: Vec<_> = rays.iter().map(|ray| mesh.intersect_brute_force(ray, -r, r)).collect();
+    assert!(reference.iter().filter(|h| h.is_some_and(|h| h.t < 0.0)).count() > 10, "some hits must lie behind the origins");
+    mesh.build_accel(Accel::BvhSah);
+    let MeshAccel::Wide(w) = mesh.accel() else { unreachable!() };
+    for level in SimdLevel::available() {
+        let mut w = w.clone();
+        w.set_level(level);
+        for (ray, want) in rays.iter().zip(&reference) {
+            same_hit(&w.intersect(ray, -r, r), want, &format!("{level:?}"), ray);
+        }
+    }
+}
