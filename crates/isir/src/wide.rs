@@ -25,7 +25,7 @@
 use crate::bvh::{Bvh, BvhNode};
 use crate::geometry::{MeshHit, TriangleMesh};
 use crate::ray::Ray;
-use crate::triangle::{moller_trumbore_edges, TriangleTest, WatertightRay};
+use crate::triangle::{moller_trumbore_edges, TriangleHit, TriangleTest, WatertightRay};
 use glam::Vec3;
 
 /// No child in this lane.
@@ -515,8 +515,11 @@ fn box_test_scalar(node: &Node8, pre: &RayPre, t_min: f32, t_max: f32, dist: &mu
     mask
 }
 
+/// A block's triangles one lane at a time: `test(a, b, c, t_min, t_max)` gets the three
+/// stored vectors of a lane (`v0, e1, e2`, or `v0, v1, v2` in a watertight block). The
+/// closest hit wins; on a tie the lower lane, as in the SIMD test.
 #[inline(always)]
-fn tri4_scalar(tri: &Tri4, ray: &Ray, t_min: f32, t_max: f32) -> Option<MeshHit> {
+fn tri4_lanes(tri: &Tri4, t_min: f32, t_max: f32, test: impl Fn(Vec3, Vec3, Vec3, f32, f32) -> Option<TriangleHit>) -> Option<MeshHit> {
     let mut best: Option<MeshHit> = None;
     for lane in 0..4 {
         if tri.prim[lane] == EMPTY {
@@ -524,28 +527,23 @@ fn tri4_scalar(tri: &Tri4, ray: &Ray, t_min: f32, t_max: f32) -> Option<MeshHit>
         }
         let get = |a: &[[f32; 4]; 3]| Vec3::new(a[0][lane], a[1][lane], a[2][lane]);
         let limit = best.map_or(t_max, |b| b.t);
-        if let Some(h) = moller_trumbore_edges(ray, get(&tri.v0), get(&tri.e1), get(&tri.e2), t_min, limit) {
+        if let Some(h) = test(get(&tri.v0), get(&tri.e1), get(&tri.e2), t_min, limit) {
             best = Some(MeshHit { t: h.t, prim: tri.prim[lane], u: h.u, v: h.v });
         }
     }
     best
 }
 
-/// The watertight test on the four triangles of a block built with exact vertices.
+/// Möller–Trumbore on a block, scalar.
+#[inline(always)]
+fn tri4_scalar(tri: &Tri4, ray: &Ray, t_min: f32, t_max: f32) -> Option<MeshHit> {
+    tri4_lanes(tri, t_min, t_max, |v0, e1, e2, t0, t1| moller_trumbore_edges(ray, v0, e1, e2, t0, t1))
+}
+
+/// The watertight test on a block built with exact vertices.
 #[inline(always)]
 fn tri4_watertight(tri: &Tri4, w: &WatertightRay, t_min: f32, t_max: f32) -> Option<MeshHit> {
-    let mut best: Option<MeshHit> = None;
-    for lane in 0..4 {
-        if tri.prim[lane] == EMPTY {
-            continue;
-        }
-        let get = |a: &[[f32; 4]; 3]| Vec3::new(a[0][lane], a[1][lane], a[2][lane]);
-        let limit = best.map_or(t_max, |b| b.t);
-        if let Some(h) = w.intersect(get(&tri.v0), get(&tri.e1), get(&tri.e2), t_min, limit) {
-            best = Some(MeshHit { t: h.t, prim: tri.prim[lane], u: h.u, v: h.v });
-        }
-    }
-    best
+    tri4_lanes(tri, t_min, t_max, |v0, v1, v2, t0, t1| w.intersect(v0, v1, v2, t0, t1))
 }
 
 /// The slab test of one ray against a node's eight boxes.
