@@ -68,6 +68,11 @@ pub enum BvhQuality {
 pub const SAH_TRAVERSAL_COST: f32 = 1.0;
 /// Primitive test cost, in the SAH.
 pub const SAH_INTERSECTION_COST: f32 = 1.0;
+/// The traversal cost the SAH build splits with, relative to testing one block of four
+/// triangles. PERF: measured on the conference room's ray sets (1200×800, 3 runs each,
+/// medians): 1.0 -> 0.7 gave primary +6%, diffuse +2%, shadow and build unchanged; 0.5
+/// was no better. [`Bvh::sah_cost`] keeps the conventional 1:1 weights.
+pub const SAH_BUILD_TRAVERSAL_COST: f32 = 0.7;
 
 /// Midpoint build: at most this many primitives per leaf (the course's `maxTrianglesPerLeaf`).
 pub const MIDPOINT_MAX_LEAF: usize = 8;
@@ -613,7 +618,7 @@ fn sah_split(prims: &mut [PrimRef], b: &Bounds, depth: u32) -> Option<(usize, Bo
         // the median keeps leaves within the limit the wide layout relies on.
         return (n > SAH_MAX_LEAF).then(|| median_split_refs(prims, axis));
     };
-    let split_cost = SAH_TRAVERSAL_COST + SAH_INTERSECTION_COST * cost / half_area(b.lo, b.hi).max(f32::MIN_POSITIVE);
+    let split_cost = SAH_BUILD_TRAVERSAL_COST + SAH_INTERSECTION_COST * cost / half_area(b.lo, b.hi).max(f32::MIN_POSITIVE);
     let leaf_cost = SAH_INTERSECTION_COST * blocks(n as u32);
     if n <= SAH_MAX_LEAF && leaf_cost <= split_cost {
         return None;
