@@ -429,7 +429,7 @@ impl WideBvh {
                     let hit = if let Some(w) = &watertight {
                         tri4_watertight(tri, w, t_min, t_best)
                     } else if SIMD {
-                        tri4_sse(tri, &pre, t_min, t_best)
+                        tri4_sse::<ANY>(tri, &pre, t_min, t_best)
                     } else {
                         tri4_scalar(tri, ray, t_min, t_best)
                     };
@@ -450,7 +450,7 @@ impl WideBvh {
                 sp -= 1;
                 // SAFETY: entries below the old `sp` were all written by a push.
                 let (c, d) = unsafe { stack.get_unchecked(sp).assume_init() };
-                if d < t_best {
+                if ANY || d < t_best {
                     cur = c;
                     break;
                 }
@@ -594,7 +594,7 @@ unsafe fn box_test_avx2(node: &Node8, pre: &RayPre, t_min: f32, t_max: f32, dist
 /// [`moller_trumbore_edges`].
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-fn tri4_sse(tri: &Tri4, pre: &RayPre, t_min: f32, t_max: f32) -> Option<MeshHit> {
+fn tri4_sse<const ANY: bool>(tri: &Tri4, pre: &RayPre, t_min: f32, t_max: f32) -> Option<MeshHit> {
     use std::arch::x86_64::*;
     // SAFETY: SSE is part of x86-64; `Tri4` is 16-byte aligned so the aligned loads are valid.
     unsafe {
@@ -640,6 +640,10 @@ fn tri4_sse(tri: &Tri4, pre: &RayPre, t_min: f32, t_max: f32) -> Option<MeshHit>
         _mm_storeu_ps(us.as_mut_ptr(), u);
         _mm_storeu_ps(vs.as_mut_ptr(), v);
         let mut lane = mask.trailing_zeros() as usize;
+        if ANY {
+            // Any hit will do: the first lane, without picking the closest.
+            return Some(MeshHit { t: ts[lane], prim: tri.prim[lane], u: us[lane], v: vs[lane] });
+        }
         mask &= mask - 1;
         while mask != 0 {
             let l = mask.trailing_zeros() as usize;
@@ -654,6 +658,6 @@ fn tri4_sse(tri: &Tri4, pre: &RayPre, t_min: f32, t_max: f32) -> Option<MeshHit>
 
 #[cfg(not(target_arch = "x86_64"))]
 #[inline(always)]
-fn tri4_sse(tri: &Tri4, pre: &RayPre, t_min: f32, t_max: f32) -> Option<MeshHit> {
+fn tri4_sse<const ANY: bool>(tri: &Tri4, pre: &RayPre, t_min: f32, t_max: f32) -> Option<MeshHit> {
     tri4_scalar(tri, &Ray::new(pre.origin, pre.dir), t_min, t_max)
 }
