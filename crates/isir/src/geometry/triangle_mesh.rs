@@ -162,7 +162,9 @@ impl TriangleMesh {
     /// One box per triangle; empty for degenerate triangles, so BVHs leave them out.
     #[must_use]
     pub fn triangle_boxes(&self) -> Vec<Aabb> {
+        use rayon::prelude::*;
         (0..self.triangles.len() as u32)
+            .into_par_iter()
             .map(|i| {
                 if !self.valid[i as usize] {
                     return Aabb::EMPTY;
