@@ -2,7 +2,7 @@
 //! table; with `embree-bench` (../shared/tools/embree-bench) found, run it on the same
 //! files in the same run and print the ratio isir / Embree and the hit agreement.
 
-use crate::trace::{trace_set, Mode, TraceFigures};
+use crate::trace::{build_timed, trace_timed, Mode, TraceFigures};
 use crate::{warn_all, with_threads};
 use anyhow::Context;
 use clap::Args;
@@ -102,6 +102,10 @@ fn num(m: &HashMap<String, String>, k: &str) -> f64 {
 }
 
 pub fn run(a: BenchArgs) -> anyhow::Result<()> {
+    with_threads(a.threads, || run_in_pool(&a))?
+}
+
+fn run_in_pool(a: &BenchArgs) -> anyhow::Result<()> {
     isir::image::check_size(a.width, a.height)?;
     let name = a.target.clone().unwrap_or_else(|| "tp4-conference".to_string());
     let desc = crate::render::scene_description(&name)?;
@@ -116,50 +120,45 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
     let dir = a.keep.clone().unwrap_or_else(|| std::env::temp_dir().join(format!("isir-bench-{}", std::process::id())));
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
 
-    // ---- The mesh, as a plain OBJ file Embree can read too ----
-    let (loaded, obj_path) = match &source {
-        MeshSource::Builtin(model) => {
-            let p = dir.join(format!("{model}.obj"));
-            std::fs::write(&p, isir::scenes::builtin_model_obj(model)?).with_context(|| format!("writing {}", p.display()))?;
-            (isir::scenes::load_builtin_model(model)?, p)
-        }
-        MeshSource::File(path) => {
-            let loaded = isir::obj::load_obj(path)?;
-            if path.extension().is_some_and(|e| e == "gz") {
-                let p = dir.join("mesh.obj");
-                std::fs::write(&p, isir::obj::read_file(path)?).with_context(|| format!("writing {}", p.display()))?;
-                (loaded, p)
-            } else {
-                (loaded, path.clone())
-            }
-        }
-    };
-    warn_all(&loaded.warnings);
-
-    // ---- The three ray sets ----
+    // ---- The scene (its mesh is the one traced) and the three ray sets ----
     let scene = desc.build(Accel::BvhSah)?;
+    warn_all(&scene.warnings);
+    let mut mesh = scene.meshes().next().map(|(_, m)| m.clone()).with_context(|| format!("{name}: the scene has no mesh"))?;
     let camera = desc.camera.build(a.width as f32 / a.height as f32);
     let kinds = [("primary", RayKind::Primary), ("diffuse", RayKind::Diffuse), ("shadow", RayKind::Shadow)];
     let mut sets = Vec::new();
     for (label, kind) in kinds {
-        let set = with_threads(a.threads, || rays::generate(&scene, &camera, a.width, a.height, kind, a.seed))??;
+        let set = rays::generate(&scene, &camera, a.width, a.height, kind, a.seed)?;
         let path = dir.join(format!("{label}.rays"));
         rays::write_rays(&path, &set)?;
         sets.push((label, kind, set, path));
     }
 
-    // ---- isir ----
-    let threads = a.threads.unwrap_or_else(rayon::current_num_threads);
-    let mut mesh = loaded.mesh;
-    let mut ours: Vec<TraceFigures> = Vec::new();
-    for (_, kind, set, _) in &sets {
-        let mode = if *kind == RayKind::Shadow { Mode::Occluded } else { Mode::Closest };
-        ours.push(with_threads(a.threads, || trace_set(&mut mesh, set, mode, Accel::BvhSah, a.repeat, None))??);
-    }
+    // ---- isir: one timed build, then every set traced with that tree ----
+    let threads = rayon::current_num_threads();
+    let build = build_timed(&mut mesh, Accel::BvhSah, a.repeat, None)?;
+    let ours: Vec<TraceFigures> = sets
+        .iter()
+        .map(|(_, kind, set, _)| trace_timed(&mesh, set, if *kind == RayKind::Shadow { Mode::Occluded } else { Mode::Closest }, a.repeat))
+        .collect();
     // Coherent primary rays in packets, beside Embree's stream mode.
-    let packets = with_threads(a.threads, || trace_set(&mut mesh, &sets[0].2, Mode::Packets, Accel::BvhSah, a.repeat, None))??;
-    let build_ms = ours.iter().map(|f| f.build_ms).fold(f64::INFINITY, f64::min);
-    let triangles = ours[0].triangles;
+    let packets = trace_timed(&mesh, &sets[0].2, Mode::Packets, a.repeat);
+    let (build_ms, triangles) = (build.build_ms, build.stats.triangles);
+
+    // ---- The mesh as a plain OBJ file, for Embree ----
+    let obj_path = match &source {
+        MeshSource::Builtin(model) => {
+            let p = dir.join(format!("{model}.obj"));
+            std::fs::write(&p, isir::scenes::builtin_model_obj(model)?).with_context(|| format!("writing {}", p.display()))?;
+            p
+        }
+        MeshSource::File(path) if path.extension().is_some_and(|e| e == "gz") => {
+            let p = dir.join("mesh.obj");
+            std::fs::write(&p, isir::obj::read_file(path)?).with_context(|| format!("writing {}", p.display()))?;
+            p
+        }
+        MeshSource::File(path) => path.clone(),
+    };
 
     // ---- Embree ----
     let embree = if a.no_embree { None } else { find_embree(&a.embree) };
@@ -168,20 +167,20 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
     if let Some(bin) = &embree {
         for (label, kind, _, path) in &sets {
             let hits = dir.join(format!("{label}.embree.hits"));
-            theirs.push(run_embree(bin, [&obj_path, path, &hits], *kind == RayKind::Shadow, "single", &a, threads)?);
+            theirs.push(run_embree(bin, [&obj_path, path, &hits], *kind == RayKind::Shadow, "single", a, threads)?);
         }
         let hits = dir.join("primary.embree-stream.hits");
-        stream = Some(run_embree(bin, [&obj_path, &sets[0].3, &hits], false, "stream", &a, threads)?);
+        stream = Some(run_embree(bin, [&obj_path, &sets[0].3, &hits], false, "stream", a, threads)?);
     }
 
     // ---- Table ----
     println!(
         "isir bench: {name}, {} triangles ({} degenerate), {}x{} rays, {threads} threads, isir simd {}{}",
         triangles,
-        ours[0].degenerate,
+        build.stats.degenerate,
         a.width,
         a.height,
-        ours[0].simd,
+        build.simd,
         embree
             .as_ref()
             .map(|b| format!(", embree-bench {} (quality {})", b.display(), a.embree_quality))
@@ -249,7 +248,10 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
         ratio(packets.mrays_per_s(), e),
         agree
     );
-    println!("sah_cost: {:.3}  nodes: {}  bytes_per_triangle: {:.1}", ours[0].sah_cost, ours[0].nodes, ours[0].bytes_per_triangle);
+    println!(
+        "sah_cost: {:.3}  nodes: {}  bytes_per_triangle: {:.1}",
+        build.stats.sah_cost, build.stats.nodes, build.stats.bytes_per_triangle
+    );
     for (i, (label, _, set, _)) in sets.iter().enumerate() {
         if let Some((n, t)) = ours[i].visits {
             println!("{label}: {} rays, {} hits, {n:.2} node visits and {t:.2} triangle tests per ray", set.len(), ours[i].hits);

@@ -5,7 +5,7 @@ use clap::{Args, ValueEnum};
 use isir::geometry::{MeshAccel, TriangleMesh};
 use isir::rays::{self, HitRecord, RayKind, RayRecord};
 use isir::wide::{SimdLevel, TraversalStats};
-use isir::{Accel, Ray};
+use isir::Accel;
 use rayon::prelude::*;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -98,6 +98,10 @@ pub enum Mode {
 }
 
 pub fn rays(a: RaysArgs) -> anyhow::Result<()> {
+    with_threads(None, || rays_in_pool(&a))?
+}
+
+fn rays_in_pool(a: &RaysArgs) -> anyhow::Result<()> {
     isir::image::check_size(a.width, a.height)?;
     let desc = crate::render::scene_description(&a.scene)?;
     let scene = desc.build(Accel::BvhSah)?;
@@ -114,21 +118,29 @@ pub fn rays(a: RaysArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// Figures of a timed build.
+#[derive(Clone, Copy, Debug)]
+pub struct BuildFigures {
+    pub build_ms: f64,
+    pub stats: isir::geometry::MeshStats,
+    /// The code path of the wide BVH ("n/a" for the other structures).
+    pub simd: &'static str,
+}
+
+impl BuildFigures {
+    pub fn build_mtris_per_s(&self) -> f64 {
+        self.stats.triangles as f64 / (self.build_ms * 1e-3).max(1e-12) * 1e-6
+    }
+}
+
 /// Figures of one traced ray set.
 #[derive(Clone, Debug, Default)]
 pub struct TraceFigures {
-    pub triangles: usize,
-    pub degenerate: usize,
     pub rays: usize,
     pub hits: usize,
-    pub build_ms: f64,
     pub trace_ms: f64,
-    pub sah_cost: f32,
-    pub nodes: usize,
-    pub bytes_per_triangle: f32,
     /// Average (wide) node visits and triangle tests per ray, when the accel counts them.
     pub visits: Option<(f64, f64)>,
-    pub simd: &'static str,
     pub hit_records: Vec<HitRecord>,
 }
 
@@ -136,45 +148,35 @@ impl TraceFigures {
     pub fn mrays_per_s(&self) -> f64 {
         self.rays as f64 / (self.trace_ms * 1e-3).max(1e-12) * 1e-6
     }
-
-    pub fn build_mtris_per_s(&self) -> f64 {
-        self.triangles as f64 / (self.build_ms * 1e-3).max(1e-12) * 1e-6
-    }
 }
 
-/// Build `mesh`'s structure (best of `min(repeat, 3)` builds) and trace `rays` (best of
-/// `repeat`) on the current pool.
-pub fn trace_set(
-    mesh: &mut TriangleMesh,
-    rays: &[RayRecord],
-    mode: Mode,
-    accel: Accel,
-    repeat: u32,
-    simd: Option<SimdLevel>,
-) -> anyhow::Result<TraceFigures> {
-    let occluded = mode == Mode::Occluded;
-    let repeat = repeat.max(1);
+/// Build `mesh`'s structure `min(repeat, 3)` times (as embree-bench does) and keep the
+/// fastest, then pick the wide BVH's code path.
+pub fn build_timed(mesh: &mut TriangleMesh, accel: Accel, repeat: u32, simd: Option<SimdLevel>) -> anyhow::Result<BuildFigures> {
     let mut build_ms = f64::INFINITY;
-    for _ in 0..repeat.min(3) {
+    for _ in 0..repeat.clamp(1, 3) {
         let t = Instant::now();
         mesh.build_accel(accel);
         build_ms = build_ms.min(t.elapsed().as_secs_f64() * 1e3);
     }
-    let mut level = "n/a";
-    if let MeshAccel::Wide(w) = mesh.accel() {
-        let mut w = w.clone();
-        if let Some(l) = simd {
-            anyhow::ensure!(SimdLevel::available().contains(&l), "--simd {}: this CPU cannot run it", l.name());
-            w.set_level(l);
-        }
-        level = w.level().name();
-        mesh.set_wide(w);
-    } else if simd.is_some() {
-        anyhow::bail!("--simd applies to --accel bvh-sah only");
+    if let Some(l) = simd {
+        anyhow::ensure!(SimdLevel::available().contains(&l), "--simd {}: this CPU cannot run it", l.name());
+        anyhow::ensure!(mesh.set_simd_level(l), "--simd applies to --accel bvh-sah only");
     }
+    let simd = match mesh.accel() {
+        MeshAccel::Wide(w) => w.level().name(),
+        _ => "n/a",
+    };
+    Ok(BuildFigures { build_ms, stats: mesh.stats(), simd })
+}
+
+/// Trace `rays` `repeat` times on the current pool and keep the fastest; then count node
+/// visits and triangle tests in a separate, untimed pass.
+pub fn trace_timed(mesh: &TriangleMesh, rays: &[RayRecord], mode: Mode, repeat: u32) -> TraceFigures {
+    let occluded = mode == Mode::Occluded;
     let mut hits = vec![HitRecord::MISS; rays.len()];
     let mut trace_ms = f64::INFINITY;
-    for _ in 0..repeat {
+    for _ in 0..repeat.max(1) {
         let t = Instant::now();
         if mode == Mode::Packets {
             rays::trace_mesh_packets(mesh, rays, &mut hits);
@@ -183,7 +185,6 @@ pub fn trace_set(
         }
         trace_ms = trace_ms.min(t.elapsed().as_secs_f64() * 1e3);
     }
-    // Tree-quality counters, in a separate untimed pass.
     let visits = match mesh.accel() {
         MeshAccel::Wide(w) => {
             let total = rays
@@ -191,39 +192,28 @@ pub fn trace_set(
                 .map(|chunk| {
                     let mut s = TraversalStats::default();
                     for r in chunk {
-                        let ray = Ray::new(r.origin, r.direction);
                         if occluded {
-                            let _ = w.occluded_stats::<true>(&ray, r.t_min, r.t_max, &mut s);
+                            let _ = w.occluded_stats::<true>(&r.ray(), r.t_min, r.t_max, &mut s);
                         } else {
-                            let _ = w.intersect_stats::<true>(&ray, r.t_min, r.t_max, &mut s);
+                            let _ = w.intersect_stats::<true>(&r.ray(), r.t_min, r.t_max, &mut s);
                         }
                     }
                     s
                 })
-                .reduce(TraversalStats::default, |a, b| TraversalStats { nodes: a.nodes + b.nodes, triangles: a.triangles + b.triangles });
+                .reduce(TraversalStats::default, |a, b| a + b);
             let n = rays.len().max(1) as f64;
             Some((total.nodes as f64 / n, total.triangles as f64 / n))
         }
         _ => None,
     };
-    let stats = mesh.stats();
-    Ok(TraceFigures {
-        triangles: stats.triangles,
-        degenerate: stats.degenerate,
-        rays: rays.len(),
-        hits: hits.iter().filter(|h| h.is_hit()).count(),
-        build_ms,
-        trace_ms,
-        sah_cost: stats.sah_cost,
-        nodes: stats.nodes,
-        bytes_per_triangle: stats.bytes_per_triangle,
-        visits,
-        simd: level,
-        hit_records: hits,
-    })
+    TraceFigures { rays: rays.len(), hits: hits.iter().filter(|h| h.is_hit()).count(), trace_ms, visits, hit_records: hits }
 }
 
 pub fn trace(a: TraceArgs) -> anyhow::Result<()> {
+    with_threads(a.threads, || trace_in_pool(&a))?
+}
+
+fn trace_in_pool(a: &TraceArgs) -> anyhow::Result<()> {
     let loaded = load_mesh(&a.mesh)?;
     warn_all(&loaded.warnings);
     let mut mesh = loaded.mesh;
@@ -245,24 +235,25 @@ pub fn trace(a: TraceArgs) -> anyhow::Result<()> {
     } else {
         Mode::Closest
     };
-    let f = with_threads(a.threads, || trace_set(&mut mesh, &set, mode, accel, a.repeat, simd))??;
-    let threads = a.threads.unwrap_or_else(rayon::current_num_threads);
+    let b = build_timed(&mut mesh, accel, a.repeat, simd)?;
+    let f = trace_timed(&mesh, &set, mode, a.repeat);
     println!("engine: isir {}", env!("CARGO_PKG_VERSION"));
     println!(
-        "threads: {threads}\nmode: {}\naccel: {}\nsimd: {}\ntriangle_test: {:?}",
+        "threads: {}\nmode: {}\naccel: {}\nsimd: {}\ntriangle_test: {:?}",
+        rayon::current_num_threads(),
         match mode {
             Mode::Occluded => "occluded-single",
             Mode::Packets => "packet16",
             Mode::Closest => "single",
         },
         accel.name(),
-        f.simd,
+        b.simd,
         mesh.triangle_test
     );
-    println!("triangles: {}\ndegenerate_triangles: {}\nrays: {}\nhits: {}", f.triangles, f.degenerate, f.rays, f.hits);
-    println!("build_ms: {:.2}\nbuild_mtris_per_s: {:.2}", f.build_ms, f.build_mtris_per_s());
+    println!("triangles: {}\ndegenerate_triangles: {}\nrays: {}\nhits: {}", b.stats.triangles, b.stats.degenerate, f.rays, f.hits);
+    println!("build_ms: {:.2}\nbuild_mtris_per_s: {:.2}", b.build_ms, b.build_mtris_per_s());
     println!("trace_ms: {:.2}\nmrays_per_s: {:.2}", f.trace_ms, f.mrays_per_s());
-    println!("sah_cost: {:.3}\nnodes: {}\nbytes_per_triangle: {:.1}", f.sah_cost, f.nodes, f.bytes_per_triangle);
+    println!("sah_cost: {:.3}\nnodes: {}\nbytes_per_triangle: {:.1}", b.stats.sah_cost, b.stats.nodes, b.stats.bytes_per_triangle);
     if let Some((n, t)) = f.visits {
         println!("avg_node_visits: {n:.2}\navg_triangle_tests: {t:.2}");
     }

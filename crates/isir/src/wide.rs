@@ -125,6 +125,13 @@ pub struct TraversalStats {
     pub triangles: u64,
 }
 
+impl std::ops::Add for TraversalStats {
+    type Output = TraversalStats;
+    fn add(self, o: TraversalStats) -> TraversalStats {
+        TraversalStats { nodes: self.nodes + o.nodes, triangles: self.triangles + o.triangles }
+    }
+}
+
 /// The wide BVH of a mesh.
 #[derive(Clone, Debug)]
 pub struct WideBvh {

@@ -203,10 +203,8 @@ fn watertight_rays_through_vertices_and_edges_of_a_closed_mesh_all_hit() {
         };
         for level in levels {
             let mut m = mesh.clone();
-            if let (Some(l), MeshAccel::Wide(w)) = (level, m.accel()) {
-                let mut w = w.clone();
-                w.set_level(l);
-                m.set_wide(w);
+            if let Some(l) = level {
+                assert!(m.set_simd_level(l));
             }
             let misses = targets.iter().filter(|&&p| m.intersect(&Ray::new(centre, p - centre), 0.0, f32::INFINITY).is_none()).count();
             assert_eq!(misses, 0, "{} {level:?}: {misses} of {} rays slipped through", accel.name(), targets.len());
@@ -245,11 +243,7 @@ fn packets_return_the_same_hits_as_single_rays() {
     }
     for level in SimdLevel::available() {
         let mut m = mesh.clone();
-        if let MeshAccel::Wide(w) = m.accel() {
-            let mut w = w.clone();
-            w.set_level(level);
-            m.set_wide(w);
-        }
+        assert!(m.set_simd_level(level));
         trace_mesh(&m, &rays, false, &mut single);
         trace_mesh_packets(&m, &rays, &mut packed);
         let mut ties = 0;

@@ -199,9 +199,18 @@ impl TriangleMesh {
         self.stats.bytes_per_triangle = bytes as f32 / self.triangles.len().max(1) as f32;
     }
 
-    /// Replace the wide BVH (to trace it at another [`crate::wide::SimdLevel`]).
-    pub fn set_wide(&mut self, wide: WideBvh) {
-        self.accel = MeshAccel::Wide(wide);
+    /// Choose the code path of the wide BVH; false when the mesh has none.
+    ///
+    /// # Panics
+    /// If this CPU cannot run `level` (see [`crate::wide::SimdLevel::available`]).
+    pub fn set_simd_level(&mut self, level: crate::wide::SimdLevel) -> bool {
+        match &mut self.accel {
+            MeshAccel::Wide(w) => {
+                w.set_level(level);
+                true
+            }
+            _ => false,
+        }
     }
 
     /// Möller–Trumbore on triangle `prim`, or `None` for a degenerate one.
