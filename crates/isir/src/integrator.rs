@@ -1,7 +1,7 @@
 //! Integrators: `Li(scene, ray, tMin, tMax)`, the colour seen along a ray.
 
 use crate::color::Color;
-use crate::ray::{offset_ray_origin, Ray};
+use crate::ray::{shadow_ray, Ray};
 use crate::sampling::Sampler;
 use crate::scene::{Hit, Scene};
 
@@ -73,11 +73,9 @@ fn direct_lighting(scene: &Scene, ray: &Ray, hit: &Hit, light_samples: u32, samp
                 continue;
             }
             // ---- Shadow ray, offset off the surface on the light's side ----
-            let ng = if hit.geometric_normal.dot(ls.direction) >= 0.0 { hit.geometric_normal } else { -hit.geometric_normal };
-            let origin = offset_ray_origin(hit.point, ng);
-            let distance = (ls.distance - (origin - hit.point).length()) * (1.0 - 1e-4);
+            let Some((shadow, t_max)) = shadow_ray(hit.point, hit.geometric_normal, ls.direction, ls.distance) else { continue };
             counters.shadow += 1;
-            if !scene.occluded(&Ray::new(origin, ls.direction), 0.0, distance) {
+            if !scene.occluded(&shadow, 0.0, t_max) {
                 sum += material.shade(ray, hit, &ls) * ls.radiance * cos;
             }
         }

@@ -66,8 +66,11 @@ impl Light {
                 let to = y - x;
                 let d = to.length();
                 let wi = to / d;
-                let area = u.length() * v.length();
-                let n = u.cross(v).normalize();
+                // A parallelogram: area |u × v| (the course's quads are rectangles, where it
+                // is |u|·|v|).
+                let c = u.cross(v);
+                let area = c.length();
+                let n = c / area;
                 let cos = n.dot(wi);
                 if cos.is_nan() || cos <= 0.0 {
                     // The back of the light: nothing.
@@ -91,6 +94,17 @@ mod tests {
         assert_eq!(s.direction, Vec3::Y);
         assert_eq!(s.distance, 10.0);
         assert_eq!(s.radiance, Vec3::ONE);
+    }
+
+    #[test]
+    fn quad_light_area_is_that_of_the_parallelogram() {
+        // u × v = (2,0,0) × (1,0,2) = (0,-4,0): area 4 (not |u|·|v| = 4.47), n = -y, so it
+        // lights points above it. Straight above the centre at distance 5: radiance =
+        // power · area · cos / d² = 10 · 4 / 25.
+        let l = Light::Quad { corner: Vec3::ZERO, u: Vec3::new(2.0, 0.0, 0.0), v: Vec3::new(1.0, 0.0, 2.0), color: Vec3::ONE, power: 10.0 };
+        let centre = Vec3::new(1.5, 0.0, 1.0);
+        let s = l.sample(centre + Vec3::new(0.0, 5.0, 0.0), Vec2::splat(0.5));
+        assert!((s.radiance.x - 1.6).abs() < 1e-5, "{s:?}");
     }
 
     #[test]

@@ -58,6 +58,20 @@ pub fn offset_ray_origin(p: Vec3, n: Vec3) -> Vec3 {
     Vec3::new(pick(p.x, p_i.x, n.x), pick(p.y, p_i.y, n.y), pick(p.z, p_i.z, n.z))
 }
 
+/// The shadow ray from surface point `p` (geometric normal `ng`, either side) to the point
+/// `distance` away along unit direction `wi`: its origin offset off the surface on the
+/// light's side, aimed at that point, its `t_max` just short of it (directions unit, so
+/// `t` is a distance). `None` when the offset origin is the target itself, or the
+/// distance is not finite.
+#[must_use]
+pub fn shadow_ray(p: Vec3, ng: Vec3, wi: Vec3, distance: f32) -> Option<(Ray, f32)> {
+    let side = if ng.dot(wi) >= 0.0 { ng } else { -ng };
+    let origin = offset_ray_origin(p, side);
+    let to = p + wi * distance - origin;
+    let dist = to.length();
+    (dist > 0.0 && dist.is_finite()).then(|| (Ray::new(origin, to / dist), dist * (1.0 - 1e-4)))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -70,6 +84,19 @@ mod tests {
                 assert!((q - p).dot(n) > 0.0, "p={p} n={n} q={q}");
                 assert!((q - p).length() < 1e-2 * (1.0 + p.length()));
             }
+        }
+    }
+
+    #[test]
+    fn shadow_rays_leave_on_the_light_side_and_stop_short() {
+        let p = Vec3::new(3.0, -3.0, 1.0);
+        let light = Vec3::new(0.0, 3.0, -5.0);
+        let wi = (light - p).normalize();
+        for ng in [Vec3::Y, -Vec3::Y] {
+            let (r, t_max) = shadow_ray(p, ng, wi, (light - p).length()).unwrap();
+            assert!(r.origin.y > p.y, "offset towards the light's side");
+            assert!((r.direction.length() - 1.0).abs() < 1e-6);
+            assert!(t_max < (light - r.origin).length() && r.at(t_max).distance(light) < 1e-2);
         }
     }
 

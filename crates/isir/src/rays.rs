@@ -3,7 +3,7 @@
 
 use crate::camera::Camera;
 use crate::error::{Error, Result};
-use crate::ray::{offset_ray_origin, Ray};
+use crate::ray::{offset_ray_origin, shadow_ray, Ray};
 use crate::sampling::{pixel_rng, square_to_cosine_hemisphere};
 use crate::scene::Scene;
 use glam::Vec3;
@@ -217,14 +217,10 @@ pub fn generate(scene: &Scene, camera: &Camera, width: u32, height: u32, kind: R
                     }
                     RayKind::Shadow => {
                         let ls = scene.lights[0].sample(hit.point, rng.next_2d());
-                        let side = if n.dot(ls.direction) >= 0.0 { n } else { -n };
-                        let origin = offset_ray_origin(hit.point, side);
-                        let to = hit.point + ls.direction * ls.distance - origin;
-                        let dist = to.length();
-                        if !(dist > 0.0 && dist.is_finite()) {
-                            continue; // the hit point is on the light: no direction to shoot
+                        // The renderer's own shadow ray.
+                        if let Some((r, t_max)) = shadow_ray(hit.point, n, ls.direction, ls.distance) {
+                            out.push(RayRecord { origin: r.origin, t_min: 0.0, direction: r.direction, t_max });
                         }
-                        out.push(RayRecord { origin, t_min: 0.0, direction: to / dist, t_max: dist * (1.0 - 1e-4) });
                     }
                     RayKind::Primary => unreachable!(),
                 }

@@ -35,6 +35,12 @@ pub enum MeshAccel {
     Wide(WideBvh),
 }
 
+/// The per-ray state of a triangle test.
+enum RayTest {
+    MollerTrumbore(Ray),
+    Watertight(WatertightRay),
+}
+
 /// A closest hit on a mesh: distance, triangle and Möller–Trumbore barycentrics.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MeshHit {
@@ -213,16 +219,24 @@ impl TriangleMesh {
         }
     }
 
-    /// Möller–Trumbore on triangle `prim`, or `None` for a degenerate one.
+    /// The per-ray part of the mesh's triangle test, prepared once per query.
+    fn ray_test(&self, ray: &Ray) -> RayTest {
+        match self.triangle_test {
+            TriangleTest::MollerTrumbore => RayTest::MollerTrumbore(*ray),
+            TriangleTest::Watertight => RayTest::Watertight(WatertightRay::new(ray)),
+        }
+    }
+
+    /// The mesh's triangle test on triangle `prim`, or `None` for a degenerate one.
     #[inline]
-    fn hit_triangle(&self, ray: &Ray, prim: u32, t_min: f32, t_max: f32) -> Option<MeshHit> {
+    fn hit_triangle(&self, test: &RayTest, prim: u32, t_min: f32, t_max: f32) -> Option<MeshHit> {
         if !self.valid[prim as usize] {
             return None;
         }
         let [a, b, c] = self.triangle_vertices(prim);
-        let hit = match self.triangle_test {
-            TriangleTest::MollerTrumbore => moller_trumbore(ray, a, b, c, t_min, t_max),
-            TriangleTest::Watertight => WatertightRay::new(ray).intersect(a, b, c, t_min, t_max),
+        let hit = match test {
+            RayTest::MollerTrumbore(ray) => moller_trumbore(ray, a, b, c, t_min, t_max),
+            RayTest::Watertight(w) => w.intersect(a, b, c, t_min, t_max),
         };
         hit.map(|h| MeshHit { t: h.t, prim, u: h.u, v: h.v })
     }
@@ -233,14 +247,22 @@ impl TriangleMesh {
         if !ray.is_valid() {
             return None;
         }
+        let test = self.ray_test(ray);
         let mut best: Option<MeshHit> = None;
         for prim in 0..self.triangles.len() as u32 {
             let limit = best.map_or(t_max, |b| b.t);
-            if let Some(h) = self.hit_triangle(ray, prim, t_min, limit) {
+            if let Some(h) = self.hit_triangle(&test, prim, t_min, limit) {
                 best = Some(h);
             }
         }
         best
+    }
+
+    /// Every triangle until one blocks the ray: the any-hit reference.
+    #[must_use]
+    pub fn occluded_brute_force(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+        let test = self.ray_test(ray);
+        ray.is_valid() && (0..self.triangles.len() as u32).any(|p| self.hit_triangle(&test, p, t_min, t_max).is_some())
     }
 
     /// The closest hit in `[t_min, t_max)`.
@@ -253,9 +275,10 @@ impl TriangleMesh {
                 self.intersect_brute_force(ray, t_min, t_max)
             }
             MeshAccel::Bvh(bvh) => {
+                let test = self.ray_test(ray);
                 let mut best = None;
                 bvh.intersect(ray, t_min, t_max, |prim, t_max| {
-                    let h = self.hit_triangle(ray, prim, t_min, t_max)?;
+                    let h = self.hit_triangle(&test, prim, t_min, t_max)?;
                     best = Some(h);
                     Some(h.t)
                 });
@@ -269,15 +292,14 @@ impl TriangleMesh {
     #[must_use]
     pub fn occluded(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
         match &self.accel {
-            MeshAccel::None => {
-                ray.is_valid() && (0..self.triangles.len() as u32).any(|p| self.hit_triangle(ray, p, t_min, t_max).is_some())
-            }
+            MeshAccel::None => self.occluded_brute_force(ray, t_min, t_max),
             MeshAccel::Aabb => {
-                ray.is_valid()
-                    && self.aabb.intersect(ray, t_min, t_max).is_some()
-                    && (0..self.triangles.len() as u32).any(|p| self.hit_triangle(ray, p, t_min, t_max).is_some())
+                ray.is_valid() && self.aabb.intersect(ray, t_min, t_max).is_some() && self.occluded_brute_force(ray, t_min, t_max)
             }
-            MeshAccel::Bvh(bvh) => bvh.occluded(ray, t_min, t_max, |prim, t_max| self.hit_triangle(ray, prim, t_min, t_max).is_some()),
+            MeshAccel::Bvh(bvh) => {
+                let test = self.ray_test(ray);
+                bvh.occluded(ray, t_min, t_max, |prim, t_max| self.hit_triangle(&test, prim, t_min, t_max).is_some())
+            }
             MeshAccel::Wide(w) => w.occluded(ray, t_min, t_max),
         }
     }
