@@ -108,7 +108,8 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
 fn run_in_pool(a: &BenchArgs) -> anyhow::Result<()> {
     isir::image::check_size(a.width, a.height)?;
     let name = a.target.clone().unwrap_or_else(|| "tp4-conference".to_string());
-    let desc = crate::render::scene_description(&name)?;
+    let (desc, scene) = crate::render::build_scene(&name, Accel::BvhSah, isir::triangle::TriangleTest::MollerTrumbore)?;
+    warn_all(&scene.warnings);
     let source = desc
         .objects
         .iter()
@@ -120,9 +121,7 @@ fn run_in_pool(a: &BenchArgs) -> anyhow::Result<()> {
     let dir = a.keep.clone().unwrap_or_else(|| std::env::temp_dir().join(format!("isir-bench-{}", std::process::id())));
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
 
-    // ---- The scene (its mesh is the one traced) and the three ray sets ----
-    let scene = desc.build(Accel::BvhSah)?;
-    warn_all(&scene.warnings);
+    // ---- The scene's mesh is the one traced; the three ray sets ----
     let mut mesh = scene.meshes().next().map(|(_, m)| m.clone()).with_context(|| format!("{name}: the scene has no mesh"))?;
     let camera = desc.camera.build(a.width as f32 / a.height as f32);
     let kinds = [("primary", RayKind::Primary), ("diffuse", RayKind::Diffuse), ("shadow", RayKind::Shadow)];

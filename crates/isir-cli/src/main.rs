@@ -45,7 +45,7 @@ enum Command {
     Render(render::RenderArgs),
     /// List the built-in scenes.
     Scenes,
-    /// Write a ray set of a scene to a ray file (formats/RAYS.md).
+    /// Write a ray set of a scene to a ray file (docs/RAYS.md).
     Rays(trace::RaysArgs),
     /// Trace a ray file against a mesh and print `key: value` figures.
     Trace(trace::TraceArgs),
@@ -80,7 +80,8 @@ fn warn_all(warnings: &[String]) {
 
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
-        None => render::run(render::RenderArgs::default()),
+        // No command: `isir render` with clap's defaults (one place for them).
+        None => run(Cli::try_parse_from(["isir", "render"])?),
         Some(Command::Render(a)) => render::run(a),
         Some(Command::Rays(a)) => trace::rays(a),
         Some(Command::Trace(a)) => trace::trace(a),

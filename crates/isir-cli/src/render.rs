@@ -5,7 +5,8 @@ use anyhow::Context;
 use clap::{Args, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 use isir::scene::{CameraDesc, MeshSource, ObjectDesc, SceneDescription, ShapeDesc};
-use isir::{Accel, Display, Integrator, Renderer};
+use isir::triangle::TriangleTest;
+use isir::{Accel, Display, Integrator, Renderer, Scene};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -54,79 +55,81 @@ pub struct RenderArgs {
     pub watertight: bool,
 }
 
-impl Default for RenderArgs {
-    fn default() -> Self {
-        Self {
-            scene: None,
-            output: "isir.png".into(),
-            width: 600,
-            height: 400,
-            spp: None,
-            light_samples: None,
-            accel: AccelArg::BvhSah,
-            integrator: None,
-            threads: None,
-            seed: 0,
-            watertight: false,
-        }
-    }
-}
-
-/// A scene for a mesh file: the camera in front of its box, a point light at the camera.
-fn file_scene(path: &str) -> anyhow::Result<SceneDescription> {
-    let loaded = crate::load_mesh(path.as_ref())?;
-    let b = loaded.mesh.aabb();
-    anyhow::ensure!(!b.is_empty(), "{path}: the mesh has no triangle to look at");
-    let c = b.centroid();
-    let r = b.diagonal().length().max(1e-6);
-    let eye = c + isir::Vec3::new(0.0, 0.25, 1.0).normalize() * r * 1.1;
-    let mut d = SceneDescription::new(path, CameraDesc::new(eye, c));
+/// A scene for a mesh file: sRGB output; camera and light are placed by [`frame`] once the
+/// mesh is loaded (the file is read once).
+fn file_scene(path: &str) -> SceneDescription {
+    let mut d = SceneDescription::new(path, CameraDesc::new(isir::Vec3::Z, isir::Vec3::ZERO));
     d.objects.push(ObjectDesc {
         name: path.to_string(),
         shape: ShapeDesc::Mesh { source: MeshSource::File(path.into()), shading: Default::default() },
         material: None,
     });
-    d.lights.push(isir::Light::Point { position: eye, color: isir::color::WHITE, power: 1.2 * r * r });
     d.display = Display::Srgb;
     d.spp = 4;
-    Ok(d)
+    d
 }
 
-/// A built-in scene by name, or a scene around an OBJ file.
-pub fn scene_description(name: &str) -> anyhow::Result<SceneDescription> {
+/// Point the camera at the built scene's meshes, from the front and a little above, with a
+/// point light at the camera.
+fn frame(path: &str, desc: &mut SceneDescription, scene: &mut Scene) -> anyhow::Result<()> {
+    let b = scene.meshes().fold(isir::Aabb::EMPTY, |b, (_, m)| b.union(&m.aabb()));
+    anyhow::ensure!(!b.is_empty(), "{path}: the mesh has no triangle to look at");
+    let (c, r) = (b.centroid(), b.diagonal().length().max(1e-6));
+    let eye = c + isir::Vec3::new(0.0, 0.25, 1.0).normalize() * r * 1.1;
+    desc.camera = CameraDesc::new(eye, c);
+    let light = isir::Light::Point { position: eye, color: isir::color::WHITE, power: 1.2 * r * r };
+    desc.lights = vec![light.clone()];
+    scene.lights = vec![light];
+    Ok(())
+}
+
+/// A built-in scene by name, or a scene around an OBJ file, built on the current pool.
+pub fn build_scene(name: &str, accel: Accel, test: TriangleTest) -> anyhow::Result<(SceneDescription, Scene)> {
     match isir::scenes::builtin(name) {
-        Ok(d) => Ok(d),
-        Err(_) if std::path::Path::new(name).exists() || name.ends_with(".obj") || name.ends_with(".gz") => file_scene(name),
+        Ok(d) => {
+            let scene = d.build_with(accel, test)?;
+            Ok((d, scene))
+        }
+        Err(_) if std::path::Path::new(name).exists() || name.ends_with(".obj") || name.ends_with(".gz") => {
+            let mut d = file_scene(name);
+            let mut scene = d.build_with(accel, test)?;
+            frame(name, &mut d, &mut scene)?;
+            Ok((d, scene))
+        }
         Err(e) => Err(e.into()),
     }
 }
 
 pub fn run(a: RenderArgs) -> anyhow::Result<()> {
+    // Every check before any work.
     isir::image::check_size(a.width, a.height)?;
     isir::image::check_output_path(&a.output)?;
+    anyhow::ensure!(a.spp != Some(0), "--spp must be at least 1");
+    anyhow::ensure!(a.light_samples != Some(0), "--light-samples must be at least 1");
+    with_threads(a.threads, || render_in_pool(&a))?
+}
+
+fn render_in_pool(a: &RenderArgs) -> anyhow::Result<()> {
     let name = a.scene.clone().unwrap_or_else(|| isir::scenes::DEFAULT_SCENE.to_string());
-    let desc = scene_description(&name)?;
     let accel: Accel = a.accel.into();
+    let test = if a.watertight { TriangleTest::Watertight } else { TriangleTest::MollerTrumbore };
     let t0 = Instant::now();
-    let test = if a.watertight { isir::triangle::TriangleTest::Watertight } else { isir::triangle::TriangleTest::MollerTrumbore };
-    let scene = with_threads(a.threads, || desc.build_with(accel, test))??;
+    let (desc, scene) = build_scene(&name, accel, test)?;
     let build_s = t0.elapsed().as_secs_f64();
     warn_all(&scene.warnings);
 
     let mut integrator = match a.integrator {
         Some(IntegratorArg::RayCast) => Integrator::RayCast,
         Some(IntegratorArg::Direct) => match desc.integrator {
-            Integrator::DirectLighting { light_samples } => Integrator::DirectLighting { light_samples },
+            d @ Integrator::DirectLighting { .. } => d,
             Integrator::RayCast => Integrator::DirectLighting { light_samples: 1 },
         },
         None => desc.integrator,
     };
     if let Some(n) = a.light_samples {
-        anyhow::ensure!(n > 0, "--light-samples must be at least 1");
         integrator = integrator.with_light_samples(n);
     }
     let spp = a.spp.unwrap_or(desc.spp);
-    anyhow::ensure!(spp > 0, "--spp must be at least 1");
     let renderer = Renderer::new(a.width, a.height).spp(spp).seed(a.seed);
     let camera = desc.camera.build(renderer.aspect());
 
@@ -135,16 +138,16 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         ProgressStyle::with_template("{spinner} {msg} [{bar:40}] {percent}% {elapsed_precise} (eta {eta})").unwrap().progress_chars("=> "),
     );
     bar.set_message(name.clone());
-    let (image, stats) = with_threads(a.threads, || renderer.render_with_progress(&scene, &camera, &integrator, &|n| bar.inc(n)))?;
+    let (image, stats) = renderer.render_with_progress(&scene, &camera, &integrator, &|n| bar.inc(n));
     bar.finish_and_clear();
 
     image.save(&a.output, desc.display).with_context(|| "writing the image".to_string())?;
-    let threads = a.threads.unwrap_or_else(rayon::current_num_threads);
     println!(
-        "isir: {name} {}x{} {spp} spp, {}, {threads} threads: build {:.3} s, render {:.3} s, {:.2} M rays ({:.2} M primary, {:.2} M shadow), {:.2} Mrays/s -> wrote {}",
+        "isir: {name} {}x{} {spp} spp, {}, {} threads: build {:.3} s, render {:.3} s, {:.2} M rays ({:.2} M primary, {:.2} M shadow), {:.2} Mrays/s -> wrote {}",
         a.width,
         a.height,
         accel.name(),
+        rayon::current_num_threads(),
         build_s,
         stats.seconds,
         stats.rays.total() as f64 * 1e-6,

@@ -57,7 +57,7 @@ pub enum SimdArg {
 pub struct TraceArgs {
     /// Mesh: an OBJ file (.obj, .obj.gz) or a built-in model (uvsphere, Bunny, conference).
     pub mesh: PathBuf,
-    /// Ray file (formats/RAYS.md).
+    /// Ray file (docs/RAYS.md).
     pub rays: PathBuf,
     /// Write the hits to this hit file.
     #[arg(long)]
@@ -103,8 +103,7 @@ pub fn rays(a: RaysArgs) -> anyhow::Result<()> {
 
 fn rays_in_pool(a: &RaysArgs) -> anyhow::Result<()> {
     isir::image::check_size(a.width, a.height)?;
-    let desc = crate::render::scene_description(&a.scene)?;
-    let scene = desc.build(Accel::BvhSah)?;
+    let (desc, scene) = crate::render::build_scene(&a.scene, Accel::BvhSah, isir::triangle::TriangleTest::MollerTrumbore)?;
     warn_all(&scene.warnings);
     let kind = match a.kind {
         KindArg::Primary => RayKind::Primary,

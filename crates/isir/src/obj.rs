@@ -126,6 +126,8 @@ pub fn parse_obj(path: &Path, bytes: &[u8], mtl_loader: impl Fn(&Path) -> Option
     let mut triangles = Vec::new();
     let mut slots = Vec::new();
     let mut all_normals = true;
+    let mut uvs = Vec::new();
+    let mut all_uvs = true;
     for model in &models {
         let m = &model.mesh;
         let base = vertices.len() as u32;
@@ -135,6 +137,11 @@ pub fn parse_obj(path: &Path, bytes: &[u8], mtl_loader: impl Fn(&Path) -> Option
             normals.extend(m.normals.chunks_exact(3).map(|n| Vec3::new(n[0], n[1], n[2])));
         } else {
             all_normals = false;
+        }
+        if m.texcoords.len() == count * 2 {
+            uvs.extend(m.texcoords.chunks_exact(2).map(|t| glam::Vec2::new(t[0], t[1])));
+        } else {
+            all_uvs = false;
         }
         let slot = m.material_id.filter(|&id| id < materials.len()).unwrap_or(materials.len()) as u32;
         for t in m.indices.chunks_exact(3) {
@@ -153,6 +160,9 @@ pub fn parse_obj(path: &Path, bytes: &[u8], mtl_loader: impl Fn(&Path) -> Option
     }
     let mut mesh = TriangleMesh::new(vertices, normals, triangles);
     mesh.material_slots = slots;
+    if all_uvs {
+        mesh.uvs = uvs; // unused by the course's materials so far, kept for textures
+    }
     let stats = mesh.stats();
     if stats.triangles == 0 {
         warnings.push("no triangles".into());
@@ -250,6 +260,13 @@ mod tests {
 
     fn parse(src: &str) -> Result<LoadedMesh> {
         parse_obj(Path::new("test.obj"), src.as_bytes(), |_| None)
+    }
+
+    #[test]
+    fn texture_coordinates_are_kept_per_vertex() {
+        let m = parse("v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n").unwrap();
+        assert_eq!(m.mesh.uvs, vec![glam::Vec2::ZERO, glam::Vec2::X, glam::Vec2::Y]);
+        assert!(parse("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap().mesh.uvs.is_empty());
     }
 
     #[test]

@@ -1,4 +1,4 @@
-//! Ray and hit files (`formats/RAYS.md`, v1), shared with other engines, and the ray sets
+//! Ray and hit files (`docs/RAYS.md`, v1), shared with other engines, and the ray sets
 //! of a scene: `primary`, `diffuse`, `shadow`.
 
 use crate::camera::Camera;
@@ -47,6 +47,12 @@ pub struct HitRecord {
     pub u: f32,
     /// Barycentric weight of the third vertex.
     pub v: f32,
+}
+
+impl From<crate::geometry::MeshHit> for HitRecord {
+    fn from(m: crate::geometry::MeshHit) -> Self {
+        HitRecord { t: m.t, prim: m.prim, u: m.u, v: m.v }
+    }
 }
 
 impl HitRecord {
@@ -282,7 +288,7 @@ pub fn trace_mesh(mesh: &crate::TriangleMesh, rays: &[RayRecord], occluded: bool
                     HitRecord::MISS
                 }
             } else {
-                mesh.intersect(&ray, r.t_min, r.t_max).map_or(HitRecord::MISS, |m| HitRecord { t: m.t, prim: m.prim, u: m.u, v: m.v })
+                mesh.intersect(&ray, r.t_min, r.t_max).map_or(HitRecord::MISS, HitRecord::from)
             };
         }
     });
@@ -306,7 +312,7 @@ pub fn trace_mesh_packets(mesh: &crate::TriangleMesh, rays: &[RayRecord], hits: 
         for (rays, hits) in rays.chunks(PACKET).zip(hits.chunks_mut(PACKET)) {
             wide.intersect_packet(rays, &mut out);
             for (h, o) in hits.iter_mut().zip(&out) {
-                *h = o.map_or(HitRecord::MISS, |m| HitRecord { t: m.t, prim: m.prim, u: m.u, v: m.v });
+                *h = o.map_or(HitRecord::MISS, HitRecord::from);
             }
         }
     });
@@ -319,8 +325,6 @@ pub struct HitAgreement {
     pub rays: usize,
     /// Rays with the same hit/miss and `t` within the relative tolerance.
     pub agree: usize,
-    /// Of the rays hit by both, those on the same triangle.
-    pub same_prim: usize,
     /// Rays hit by both.
     pub both_hit: usize,
 }
@@ -348,9 +352,6 @@ pub fn compare_hits(a: &[HitRecord], b: &[HitRecord], rel_tol: f32) -> HitAgreem
                 r.both_hit += 1;
                 if (x.t - y.t).abs() <= rel_tol * x.t.abs().max(y.t.abs()) {
                     r.agree += 1;
-                }
-                if x.prim == y.prim {
-                    r.same_prim += 1;
                 }
             }
             _ => {}

@@ -275,41 +275,38 @@ impl WideBvh {
 
     /// [`Self::intersect`], counting into `stats` when `STATS`.
     pub fn intersect_stats<const STATS: bool>(&self, ray: &Ray, t_min: f32, t_max: f32, stats: &mut TraversalStats) -> Option<MeshHit> {
+        self.dispatch::<false, STATS>(ray, t_min, t_max, stats)
+    }
+
+    /// [`Self::occluded`], counting into `stats` when `STATS`.
+    pub fn occluded_stats<const STATS: bool>(&self, ray: &Ray, t_min: f32, t_max: f32, stats: &mut TraversalStats) -> bool {
+        self.dispatch::<true, STATS>(ray, t_min, t_max, stats).is_some()
+    }
+
+    /// The traversal for this BVH's code path.
+    #[inline(always)]
+    fn dispatch<const ANY: bool, const STATS: bool>(
+        &self,
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+        stats: &mut TraversalStats,
+    ) -> Option<MeshHit> {
         if self.root == EMPTY || !ray.is_valid() {
             return None;
         }
         match self.level {
             // SAFETY: the scalar instantiation runs no SIMD instruction beyond SSE2.
-            SimdLevel::Scalar => unsafe { self.traverse::<false, false, STATS>(ray, t_min, t_max, stats) },
+            SimdLevel::Scalar => unsafe { self.traverse::<false, ANY, STATS>(ray, t_min, t_max, stats) },
             #[cfg(target_arch = "x86_64")]
             // SAFETY: `level` is only ever set to a level `SimdLevel::available` reported.
-            SimdLevel::Avx2 => unsafe { self.traverse_avx2::<false, STATS>(ray, t_min, t_max, stats) },
+            SimdLevel::Avx2 => unsafe { self.traverse_avx2::<ANY, STATS>(ray, t_min, t_max, stats) },
             #[cfg(target_arch = "x86_64")]
             // SAFETY: as above.
-            SimdLevel::Avx512 => unsafe { self.traverse_avx512::<false, STATS>(ray, t_min, t_max, stats) },
+            SimdLevel::Avx512 => unsafe { self.traverse_avx512::<ANY, STATS>(ray, t_min, t_max, stats) },
             #[cfg(not(target_arch = "x86_64"))]
             _ => unreachable!(),
         }
-    }
-
-    /// [`Self::occluded`], counting into `stats` when `STATS`.
-    pub fn occluded_stats<const STATS: bool>(&self, ray: &Ray, t_min: f32, t_max: f32, stats: &mut TraversalStats) -> bool {
-        if self.root == EMPTY || !ray.is_valid() {
-            return false;
-        }
-        let hit = match self.level {
-            // SAFETY: the scalar instantiation runs no SIMD instruction beyond SSE2.
-            SimdLevel::Scalar => unsafe { self.traverse::<false, true, STATS>(ray, t_min, t_max, stats) },
-            #[cfg(target_arch = "x86_64")]
-            // SAFETY: `level` is only ever set to a level `SimdLevel::available` reported.
-            SimdLevel::Avx2 => unsafe { self.traverse_avx2::<true, STATS>(ray, t_min, t_max, stats) },
-            #[cfg(target_arch = "x86_64")]
-            // SAFETY: as above.
-            SimdLevel::Avx512 => unsafe { self.traverse_avx512::<true, STATS>(ray, t_min, t_max, stats) },
-            #[cfg(not(target_arch = "x86_64"))]
-            _ => unreachable!(),
-        };
-        hit.is_some()
     }
 
     #[cfg(target_arch = "x86_64")]
@@ -434,11 +431,11 @@ impl WideBvh {
                         stats.triangles += 4;
                     }
                     let hit = if let Some(w) = &watertight {
-                        tri4_watertight(tri, w, t_min, t_best)
+                        tri4_watertight::<ANY>(tri, w, t_min, t_best)
                     } else if SIMD {
                         tri4_sse::<ANY>(tri, &pre, t_min, t_best)
                     } else {
-                        tri4_scalar(tri, ray, t_min, t_best)
+                        tri4_scalar::<ANY>(tri, ray, t_min, t_best)
                     };
                     if let Some(h) = hit {
                         if ANY {
@@ -524,9 +521,15 @@ fn box_test_scalar(node: &Node8, pre: &RayPre, t_min: f32, t_max: f32, dist: &mu
 
 /// A block's triangles one lane at a time: `test(a, b, c, t_min, t_max)` gets the three
 /// stored vectors of a lane (`v0, e1, e2`, or `v0, v1, v2` in a watertight block). The
-/// closest hit wins; on a tie the lower lane, as in the SIMD test.
+/// closest hit wins; on a tie the lower lane, as in the SIMD test. With `ANY`, the first
+/// hit.
 #[inline(always)]
-fn tri4_lanes(tri: &Tri4, t_min: f32, t_max: f32, test: impl Fn(Vec3, Vec3, Vec3, f32, f32) -> Option<TriangleHit>) -> Option<MeshHit> {
+fn tri4_lanes<const ANY: bool>(
+    tri: &Tri4,
+    t_min: f32,
+    t_max: f32,
+    test: impl Fn(Vec3, Vec3, Vec3, f32, f32) -> Option<TriangleHit>,
+) -> Option<MeshHit> {
     let mut best: Option<MeshHit> = None;
     for lane in 0..4 {
         if tri.prim[lane] == EMPTY {
@@ -536,6 +539,9 @@ fn tri4_lanes(tri: &Tri4, t_min: f32, t_max: f32, test: impl Fn(Vec3, Vec3, Vec3
         let limit = best.map_or(t_max, |b| b.t);
         if let Some(h) = test(get(&tri.v0), get(&tri.e1), get(&tri.e2), t_min, limit) {
             best = Some(MeshHit { t: h.t, prim: tri.prim[lane], u: h.u, v: h.v });
+            if ANY {
+                break;
+            }
         }
     }
     best
@@ -543,14 +549,14 @@ fn tri4_lanes(tri: &Tri4, t_min: f32, t_max: f32, test: impl Fn(Vec3, Vec3, Vec3
 
 /// Möller–Trumbore on a block, scalar.
 #[inline(always)]
-fn tri4_scalar(tri: &Tri4, ray: &Ray, t_min: f32, t_max: f32) -> Option<MeshHit> {
-    tri4_lanes(tri, t_min, t_max, |v0, e1, e2, t0, t1| moller_trumbore_edges(ray, v0, e1, e2, t0, t1))
+fn tri4_scalar<const ANY: bool>(tri: &Tri4, ray: &Ray, t_min: f32, t_max: f32) -> Option<MeshHit> {
+    tri4_lanes::<ANY>(tri, t_min, t_max, |v0, e1, e2, t0, t1| moller_trumbore_edges(ray, v0, e1, e2, t0, t1))
 }
 
 /// The watertight test on a block built with exact vertices.
 #[inline(always)]
-fn tri4_watertight(tri: &Tri4, w: &WatertightRay, t_min: f32, t_max: f32) -> Option<MeshHit> {
-    tri4_lanes(tri, t_min, t_max, |v0, v1, v2, t0, t1| w.intersect(v0, v1, v2, t0, t1))
+fn tri4_watertight<const ANY: bool>(tri: &Tri4, w: &WatertightRay, t_min: f32, t_max: f32) -> Option<MeshHit> {
+    tri4_lanes::<ANY>(tri, t_min, t_max, |v0, v1, v2, t0, t1| w.intersect(v0, v1, v2, t0, t1))
 }
 
 /// The slab test of one ray against a node's eight boxes.
@@ -666,5 +672,5 @@ fn tri4_sse<const ANY: bool>(tri: &Tri4, pre: &RayPre, t_min: f32, t_max: f32) -
 #[cfg(not(target_arch = "x86_64"))]
 #[inline(always)]
 fn tri4_sse<const ANY: bool>(tri: &Tri4, pre: &RayPre, t_min: f32, t_max: f32) -> Option<MeshHit> {
-    tri4_scalar(tri, &Ray::new(pre.origin, pre.dir), t_min, t_max)
+    tri4_scalar::<ANY>(tri, &Ray::new(pre.origin, pre.dir), t_min, t_max)
 }
