@@ -64,9 +64,20 @@ pub fn check_size(width: u32, height: u32) -> Result<()> {
 /// # Errors
 /// An extension other than `.png` or `.exr`.
 pub fn check_output_path(path: &Path) -> Result<()> {
+    output_format(path).map(|_| ())
+}
+
+/// The file formats [`Image::save`] writes.
+enum Format {
+    Png,
+    Exr,
+}
+
+fn output_format(path: &Path) -> Result<Format> {
     let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).unwrap_or_default();
     match ext.as_str() {
-        "png" | "exr" => Ok(()),
+        "png" => Ok(Format::Png),
+        "exr" => Ok(Format::Exr),
         _ => Err(Error::Image { path: path.to_path_buf(), message: format!("unsupported image format '.{ext}' (use .png or .exr)") }),
     }
 }
@@ -107,11 +118,9 @@ impl Image {
     /// An unsupported extension, or a file that cannot be written.
     pub fn save(&self, path: impl AsRef<Path>, display: Display) -> Result<()> {
         let path = path.as_ref();
-        check_output_path(path)?;
-        let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).unwrap_or_default();
         let fail = |message: String| Error::Image { path: path.to_path_buf(), message };
-        match ext.as_str() {
-            "exr" => {
+        match output_format(path)? {
+            Format::Exr => {
                 let w = self.width as usize;
                 exr::prelude::write_rgb_file(path, w, self.height as usize, |x, y| {
                     let c = self.pixels[y * w + x];
@@ -119,9 +128,8 @@ impl Image {
                 })
                 .map_err(|e| fail(e.to_string()))
             }
-            "png" => image::save_buffer(path, &self.to_rgb8(display), self.width, self.height, image::ExtendedColorType::Rgb8)
+            Format::Png => image::save_buffer(path, &self.to_rgb8(display), self.width, self.height, image::ExtendedColorType::Rgb8)
                 .map_err(|e| fail(e.to_string())),
-            _ => Err(fail(format!("unsupported image format '.{ext}' (use .png or .exr)"))),
         }
     }
 }

@@ -36,7 +36,15 @@ pub fn builtin_models() -> Vec<&'static str> {
 /// # Errors
 /// No such model.
 pub fn builtin_model_obj(name: &str) -> Result<Vec<u8>> {
-    let (_, file, bytes, _) = MODELS.iter().find(|m| m.0 == name).ok_or_else(|| Error::Scene(format!("no built-in model '{name}'")))?;
+    let (_, file, bytes, _) = model(name)?;
+    unpack(file, bytes)
+}
+
+fn model(name: &str) -> Result<&'static (&'static str, &'static str, &'static [u8], &'static [u8])> {
+    MODELS.iter().find(|m| m.0 == name).ok_or_else(|| Error::Scene(format!("no built-in model '{name}'")))
+}
+
+fn unpack(file: &str, bytes: &[u8]) -> Result<Vec<u8>> {
     if file.ends_with(".gz") {
         obj::gunzip(bytes).map_err(|source| Error::Io { path: file.into(), source })
     } else {
@@ -49,8 +57,8 @@ pub fn builtin_model_obj(name: &str) -> Result<Vec<u8>> {
 /// # Errors
 /// No such model.
 pub fn load_builtin_model(name: &str) -> Result<LoadedMesh> {
-    let (_, file, _, mtl) = MODELS.iter().find(|m| m.0 == name).ok_or_else(|| Error::Scene(format!("no built-in model '{name}'")))?;
-    let bytes = builtin_model_obj(name)?;
+    let (_, file, bytes, mtl) = model(name)?;
+    let bytes = unpack(file, bytes)?;
     obj::parse_obj(Path::new(file), &bytes, |_| Some(mtl.to_vec()))
 }
 
