@@ -38,7 +38,7 @@ impl WideBvh {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
     unsafe fn packet_avx512(&self, rays: &[RayRecord], out: &mut [Option<MeshHit>]) -> bool {
-        use crate::wide::{BLOCKS_SHIFT, EMPTY, FIRST_MASK, LEAF, STACK_SIZE, WIDEN};
+        use crate::wide::{leaf_blocks, EMPTY, LEAF, STACK_SIZE, WIDEN};
         use std::arch::x86_64::*;
 
         // ---- Load the packet as structure of arrays ----
@@ -151,9 +151,7 @@ impl WideBvh {
                 // ---- Leaf: each triangle against the rays that reached it ----
                 // (Empty lanes are skipped when children are pushed.)
                 debug_assert!(cur != EMPTY);
-                let first = (cur & FIRST_MASK) as usize;
-                let blocks = ((cur >> BLOCKS_SHIFT) & 0x7) as usize + 1;
-                for b in first..first + blocks {
+                for b in leaf_blocks(cur) {
                     // SAFETY: leaf codes index `tris` (`make_leaf` wrote them).
                     let tri = self.tris.get_unchecked(b);
                     for lane in 0..4 {

@@ -421,21 +421,20 @@ impl WideBvh {
                 // the ordered compare too), so an empty lane is never followed. PERF: a
                 // release-mode check here cost ~3% of primary rays.
                 debug_assert!(cur != EMPTY);
-                let first = (cur & FIRST_MASK) as usize;
-                let blocks = ((cur >> BLOCKS_SHIFT) & 0x7) as usize + 1;
-                debug_assert!(first + blocks <= self.tris.len());
-                for b in first..first + blocks {
+                let range = leaf_blocks(cur);
+                debug_assert!(range.end <= self.tris.len());
+                for b in range {
                     // SAFETY: leaf codes are written by `make_leaf` and index `tris`.
                     let tri = unsafe { self.tris.get_unchecked(b) };
                     if STATS {
                         stats.triangles += 4;
                     }
                     let hit = if let Some(w) = &watertight {
-                        tri4_watertight::<ANY>(tri, w, t_min, t_best)
+                        tri4_watertight(tri, w, t_min, t_best)
                     } else if SIMD {
                         tri4_sse::<ANY>(tri, &pre, t_min, t_best)
                     } else {
-                        tri4_scalar::<ANY>(tri, ray, t_min, t_best)
+                        tri4_scalar(tri, ray, t_min, t_best)
                     };
                     if let Some(h) = hit {
                         if ANY {
@@ -461,6 +460,13 @@ impl WideBvh {
             }
         }
     }
+}
+
+/// The triangle blocks a leaf's child code names.
+#[inline(always)]
+pub(crate) fn leaf_blocks(code: u32) -> std::ops::Range<usize> {
+    let first = (code & FIRST_MASK) as usize;
+    first..first + ((code >> BLOCKS_SHIFT) & 0x7) as usize + 1
 }
 
 /// What every box and triangle test of one ray shares.
@@ -521,15 +527,9 @@ fn box_test_scalar(node: &Node8, pre: &RayPre, t_min: f32, t_max: f32, dist: &mu
 
 /// A block's triangles one lane at a time: `test(a, b, c, t_min, t_max)` gets the three
 /// stored vectors of a lane (`v0, e1, e2`, or `v0, v1, v2` in a watertight block). The
-/// closest hit wins; on a tie the lower lane, as in the SIMD test. With `ANY`, the first
-/// hit.
+/// closest hit wins; on a tie the lower lane, as in the SIMD test.
 #[inline(always)]
-fn tri4_lanes<const ANY: bool>(
-    tri: &Tri4,
-    t_min: f32,
-    t_max: f32,
-    test: impl Fn(Vec3, Vec3, Vec3, f32, f32) -> Option<TriangleHit>,
-) -> Option<MeshHit> {
+fn tri4_lanes(tri: &Tri4, t_min: f32, t_max: f32, test: impl Fn(Vec3, Vec3, Vec3, f32, f32) -> Option<TriangleHit>) -> Option<MeshHit> {
     let mut best: Option<MeshHit> = None;
     for lane in 0..4 {
         if tri.prim[lane] == EMPTY {
@@ -539,9 +539,6 @@ fn tri4_lanes<const ANY: bool>(
         let limit = best.map_or(t_max, |b| b.t);
         if let Some(h) = test(get(&tri.v0), get(&tri.e1), get(&tri.e2), t_min, limit) {
             best = Some(MeshHit { t: h.t, prim: tri.prim[lane], u: h.u, v: h.v });
-            if ANY {
-                break;
-            }
         }
     }
     best
@@ -549,14 +546,14 @@ fn tri4_lanes<const ANY: bool>(
 
 /// Möller–Trumbore on a block, scalar.
 #[inline(always)]
-fn tri4_scalar<const ANY: bool>(tri: &Tri4, ray: &Ray, t_min: f32, t_max: f32) -> Option<MeshHit> {
-    tri4_lanes::<ANY>(tri, t_min, t_max, |v0, e1, e2, t0, t1| moller_trumbore_edges(ray, v0, e1, e2, t0, t1))
+fn tri4_scalar(tri: &Tri4, ray: &Ray, t_min: f32, t_max: f32) -> Option<MeshHit> {
+    tri4_lanes(tri, t_min, t_max, |v0, e1, e2, t0, t1| moller_trumbore_edges(ray, v0, e1, e2, t0, t1))
 }
 
 /// The watertight test on a block built with exact vertices.
 #[inline(always)]
-fn tri4_watertight<const ANY: bool>(tri: &Tri4, w: &WatertightRay, t_min: f32, t_max: f32) -> Option<MeshHit> {
-    tri4_lanes::<ANY>(tri, t_min, t_max, |v0, v1, v2, t0, t1| w.intersect(v0, v1, v2, t0, t1))
+fn tri4_watertight(tri: &Tri4, w: &WatertightRay, t_min: f32, t_max: f32) -> Option<MeshHit> {
+    tri4_lanes(tri, t_min, t_max, |v0, v1, v2, t0, t1| w.intersect(v0, v1, v2, t0, t1))
 }
 
 /// The slab test of one ray against a node's eight boxes.
@@ -672,5 +669,5 @@ fn tri4_sse<const ANY: bool>(tri: &Tri4, pre: &RayPre, t_min: f32, t_max: f32) -
 #[cfg(not(target_arch = "x86_64"))]
 #[inline(always)]
 fn tri4_sse<const ANY: bool>(tri: &Tri4, pre: &RayPre, t_min: f32, t_max: f32) -> Option<MeshHit> {
-    tri4_scalar::<ANY>(tri, &Ray::new(pre.origin, pre.dir), t_min, t_max)
+    tri4_scalar(tri, &Ray::new(pre.origin, pre.dir), t_min, t_max)
 }
