@@ -3,12 +3,13 @@
 use std::process::Command;
 
 fn isir(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_isir")).args(args).current_dir(std::env::temp_dir()).output().unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_isir")).args(args).current_dir(env!("CARGO_TARGET_TMPDIR")).output().unwrap();
     (out.status.code().unwrap_or(-1), String::from_utf8_lossy(&out.stdout).into(), String::from_utf8_lossy(&out.stderr).into())
 }
 
+/// A file in cargo's scratch directory for integration tests (under `target/`).
 fn tmp(name: &str) -> std::path::PathBuf {
-    let d = std::env::temp_dir().join(format!("isir-cli-{}", std::process::id()));
+    let d = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("isir-cli");
     std::fs::create_dir_all(&d).unwrap();
     d.join(name)
 }
