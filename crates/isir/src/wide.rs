@@ -142,7 +142,6 @@ pub struct WideBvh {
     depth: usize,
     /// Blocks hold `v0, v1, v2` for the watertight test instead of `v0, e1, e2`.
     pub(crate) watertight: bool,
-    sah_cost: f32,
     level: SimdLevel,
 }
 
@@ -156,7 +155,6 @@ impl WideBvh {
             root: EMPTY,
             depth: 0,
             watertight: mesh.triangle_test == TriangleTest::Watertight,
-            sah_cost: bvh.sah_cost(),
             level: SimdLevel::best(),
         };
         if !bvh.nodes.is_empty() {
@@ -172,12 +170,6 @@ impl WideBvh {
     #[must_use]
     pub fn node_count(&self) -> usize {
         self.nodes.len()
-    }
-
-    /// SAH cost of the binary BVH it was built from.
-    #[must_use]
-    pub fn sah_cost(&self) -> f32 {
-        self.sah_cost
     }
 
     /// Bytes of nodes and triangle blocks.

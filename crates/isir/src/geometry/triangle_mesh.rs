@@ -186,19 +186,25 @@ impl TriangleMesh {
 
     /// Build the acceleration structure (replacing any previous one).
     pub fn build_accel(&mut self, accel: Accel) {
-        self.accel = match accel {
-            Accel::None => MeshAccel::None,
-            Accel::Aabb => MeshAccel::Aabb,
-            Accel::BvhMid => MeshAccel::Bvh(Bvh::build(&self.triangle_boxes(), BvhQuality::Midpoint)),
+        let (accel, sah_cost) = match accel {
+            Accel::None => (MeshAccel::None, 0.0),
+            Accel::Aabb => (MeshAccel::Aabb, 0.0),
+            Accel::BvhMid => {
+                let bvh = Bvh::build(&self.triangle_boxes(), BvhQuality::Midpoint);
+                let cost = bvh.sah_cost();
+                (MeshAccel::Bvh(bvh), cost)
+            }
             Accel::BvhSah => {
                 let bvh = Bvh::build(&self.triangle_boxes(), BvhQuality::Sah);
-                MeshAccel::Wide(WideBvh::from_bvh(&bvh, self))
+                let cost = bvh.sah_cost();
+                (MeshAccel::Wide(WideBvh::from_bvh(&bvh, self)), cost)
             }
         };
-        let (nodes, sah_cost, bytes) = match &self.accel {
-            MeshAccel::None | MeshAccel::Aabb => (0, 0.0, 0),
-            MeshAccel::Bvh(b) => (b.nodes.len(), b.sah_cost(), b.nodes.len() * 32 + b.prim_indices.len() * 4),
-            MeshAccel::Wide(w) => (w.node_count(), w.sah_cost(), w.bytes()),
+        self.accel = accel;
+        let (nodes, bytes) = match &self.accel {
+            MeshAccel::None | MeshAccel::Aabb => (0, 0),
+            MeshAccel::Bvh(b) => (b.nodes.len(), b.nodes.len() * 32 + b.prim_indices.len() * 4),
+            MeshAccel::Wide(w) => (w.node_count(), w.bytes()),
         };
         self.stats.nodes = nodes;
         self.stats.sah_cost = sah_cost;
