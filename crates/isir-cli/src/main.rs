@@ -5,7 +5,7 @@ mod bench;
 mod render;
 mod trace;
 
-use clap::{Parser, Subcommand, ValueEnum};
+use clap::{Parser, Subcommand};
 
 /// isir: a CPU ray tracer for the ISIR ray-tracing course.
 #[derive(Parser, Debug)]
@@ -13,30 +13,6 @@ use clap::{Parser, Subcommand, ValueEnum};
 struct Cli {
     #[command(subcommand)]
     command: Option<Command>,
-}
-
-/// Acceleration structure for meshes (the TP4 lesson, step by step).
-#[derive(Clone, Copy, Debug, ValueEnum)]
-pub enum AccelArg {
-    /// Every triangle for every ray.
-    None,
-    /// The mesh's box first, then every triangle.
-    Aabb,
-    /// The course's BVH: midpoint split, 8 triangles per leaf, depth 32.
-    BvhMid,
-    /// Binned SAH BVH, wide SIMD layout (default).
-    BvhSah,
-}
-
-impl From<AccelArg> for isir::Accel {
-    fn from(a: AccelArg) -> Self {
-        match a {
-            AccelArg::None => isir::Accel::None,
-            AccelArg::Aabb => isir::Accel::Aabb,
-            AccelArg::BvhMid => isir::Accel::BvhMid,
-            AccelArg::BvhSah => isir::Accel::BvhSah,
-        }
-    }
 }
 
 #[derive(Subcommand, Debug)]

@@ -1,6 +1,6 @@
 //! `isir render`.
 
-use crate::{warn_all, with_threads, AccelArg};
+use crate::{warn_all, with_threads};
 use anyhow::Context;
 use clap::{Args, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -39,8 +39,9 @@ pub struct RenderArgs {
     #[arg(long)]
     pub light_samples: Option<u32>,
     /// Acceleration structure for meshes.
-    #[arg(long, value_enum, default_value_t = AccelArg::BvhSah)]
-    pub accel: AccelArg,
+    /// (none, aabb, bvh-mid, bvh-sah)
+    #[arg(long, default_value = "bvh-sah")]
+    pub accel: Accel,
     /// Integrator (default: the scene's).
     #[arg(long, value_enum)]
     pub integrator: Option<IntegratorArg>,
@@ -111,7 +112,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
 
 fn render_in_pool(a: &RenderArgs) -> anyhow::Result<()> {
     let name = a.scene.clone().unwrap_or_else(|| isir::scenes::DEFAULT_SCENE.to_string());
-    let accel: Accel = a.accel.into();
+    let accel = a.accel;
     let test = if a.watertight { TriangleTest::Watertight } else { TriangleTest::MollerTrumbore };
     let t0 = Instant::now();
     let (desc, scene) = build_scene(&name, accel, test)?;

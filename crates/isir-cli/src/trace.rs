@@ -1,7 +1,7 @@
 //! `isir rays` (write a ray set) and `isir trace` (trace a ray file against a mesh).
 
-use crate::{load_mesh, warn_all, with_threads, AccelArg};
-use clap::{Args, ValueEnum};
+use crate::{load_mesh, warn_all, with_threads};
+use clap::Args;
 use isir::geometry::{MeshAccel, TriangleMesh};
 use isir::rays::{self, HitRecord, RayKind, RayRecord};
 use isir::wide::{SimdLevel, TraversalStats};
@@ -10,24 +10,13 @@ use rayon::prelude::*;
 use std::path::PathBuf;
 use std::time::Instant;
 
-/// A ray set kind.
-#[derive(Clone, Copy, Debug, ValueEnum)]
-pub enum KindArg {
-    /// Through every pixel centre.
-    Primary,
-    /// Cosine-distributed from every primary hit.
-    Diffuse,
-    /// Towards the first light from every primary hit.
-    Shadow,
-}
-
 #[derive(Args, Debug)]
 pub struct RaysArgs {
     /// A built-in scene (`isir scenes`) or an OBJ file.
     pub scene: String,
-    /// Which ray set.
-    #[arg(long, value_enum)]
-    pub kind: KindArg,
+    /// Which ray set (primary, diffuse, shadow).
+    #[arg(long)]
+    pub kind: RayKind,
     /// Output ray file.
     #[arg(short, long)]
     pub output: PathBuf,
@@ -40,17 +29,6 @@ pub struct RaysArgs {
     /// Seed of the random directions and light points.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-}
-
-/// Which code path traces (default: the best this CPU has).
-#[derive(Clone, Copy, Debug, ValueEnum)]
-pub enum SimdArg {
-    /// Portable scalar code.
-    Scalar,
-    /// AVX2 + FMA.
-    Avx2,
-    /// AVX-512.
-    Avx512,
 }
 
 #[derive(Args, Debug)]
@@ -66,17 +44,19 @@ pub struct TraceArgs {
     #[arg(long)]
     pub occluded: bool,
     /// Acceleration structure.
-    #[arg(long, value_enum, default_value_t = AccelArg::BvhSah)]
-    pub accel: AccelArg,
+    /// (none, aabb, bvh-mid, bvh-sah)
+    #[arg(long, default_value = "bvh-sah")]
+    pub accel: Accel,
     /// Worker threads (default: one per core).
     #[arg(long)]
     pub threads: Option<usize>,
     /// Time the build and the trace this many times and keep the best.
     #[arg(long, default_value_t = 5)]
     pub repeat: u32,
-    /// Code path of the wide BVH (bvh-sah only).
-    #[arg(long, value_enum)]
-    pub simd: Option<SimdArg>,
+    /// Code path of the wide BVH, bvh-sah only (scalar, avx2, avx512; default: the
+    /// best this CPU has).
+    #[arg(long)]
+    pub simd: Option<SimdLevel>,
     /// Use the watertight ray–triangle test (Woop et al.) instead of Möller–Trumbore.
     #[arg(long)]
     pub watertight: bool,
@@ -98,20 +78,11 @@ pub enum Mode {
 }
 
 pub fn rays(a: RaysArgs) -> anyhow::Result<()> {
-    with_threads(None, || rays_in_pool(&a))?
-}
-
-fn rays_in_pool(a: &RaysArgs) -> anyhow::Result<()> {
     isir::image::check_size(a.width, a.height)?;
     let (desc, scene) = crate::render::build_scene(&a.scene, Accel::BvhSah, isir::triangle::TriangleTest::MollerTrumbore)?;
     warn_all(&scene.warnings);
-    let kind = match a.kind {
-        KindArg::Primary => RayKind::Primary,
-        KindArg::Diffuse => RayKind::Diffuse,
-        KindArg::Shadow => RayKind::Shadow,
-    };
     let camera = desc.camera.build(a.width as f32 / a.height as f32);
-    let set = rays::generate(&scene, &camera, a.width, a.height, kind, a.seed)?;
+    let set = rays::generate(&scene, &camera, a.width, a.height, a.kind, a.seed)?;
     rays::write_rays(&a.output, &set)?;
     println!("rays: {}\nwrote: {}", set.len(), a.output.display());
     Ok(())
@@ -220,12 +191,7 @@ fn trace_in_pool(a: &TraceArgs) -> anyhow::Result<()> {
         mesh.triangle_test = isir::triangle::TriangleTest::Watertight;
     }
     let set = rays::read_rays(&a.rays)?;
-    let accel: Accel = a.accel.into();
-    let simd = a.simd.map(|s| match s {
-        SimdArg::Scalar => SimdLevel::Scalar,
-        SimdArg::Avx2 => SimdLevel::Avx2,
-        SimdArg::Avx512 => SimdLevel::Avx512,
-    });
+    let (accel, simd) = (a.accel, a.simd);
     anyhow::ensure!(!(a.packets && a.occluded), "--packets traces closest hits: drop --occluded or --packets");
     let mode = if a.occluded {
         Mode::Occluded

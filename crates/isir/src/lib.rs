@@ -52,5 +52,15 @@ pub use ray::Ray;
 pub use renderer::{RenderStats, Renderer};
 pub use scene::{Accel, Hit, Scene, SceneDescription};
 
+/// Parse one of a closed set of named choices (their command-line names), or say which
+/// names exist: the one `FromStr` behind [`Accel`], [`rays::RayKind`] and
+/// [`wide::SimdLevel`].
+pub(crate) fn parse_name<T: Copy>(s: &str, all: &[T], name: fn(T) -> &'static str, what: &str) -> std::result::Result<T, String> {
+    all.iter().copied().find(|&x| name(x) == s).ok_or_else(|| {
+        let names: Vec<&str> = all.iter().map(|&x| name(x)).collect();
+        format!("unknown {what} '{s}' (expected {})", names.join(", "))
+    })
+}
+
 /// Re-exported so users of the library need not depend on `glam` themselves.
 pub use glam::{Vec2, Vec3};

@@ -181,15 +181,25 @@ pub enum RayKind {
 }
 
 impl RayKind {
-    /// Parse `primary`, `diffuse` or `shadow`.
+    /// Every kind.
+    pub const ALL: [RayKind; 3] = [RayKind::Primary, RayKind::Diffuse, RayKind::Shadow];
+
+    /// The command-line name.
     #[must_use]
-    pub fn from_name(s: &str) -> Option<RayKind> {
-        match s {
-            "primary" => Some(RayKind::Primary),
-            "diffuse" => Some(RayKind::Diffuse),
-            "shadow" => Some(RayKind::Shadow),
-            _ => None,
+    pub fn name(self) -> &'static str {
+        match self {
+            RayKind::Primary => "primary",
+            RayKind::Diffuse => "diffuse",
+            RayKind::Shadow => "shadow",
         }
+    }
+}
+
+impl std::str::FromStr for RayKind {
+    type Err = String;
+    /// Parse `primary`, `diffuse` or `shadow`.
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        crate::parse_name(s, &Self::ALL, Self::name, "ray set")
     }
 }
 

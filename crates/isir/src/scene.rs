@@ -47,11 +47,13 @@ impl Accel {
             Accel::BvhSah => "bvh-sah",
         }
     }
+}
 
-    /// Parse a command-line name.
-    #[must_use]
-    pub fn from_name(s: &str) -> Option<Accel> {
-        Self::ALL.into_iter().find(|a| a.name() == s)
+impl std::str::FromStr for Accel {
+    type Err = String;
+    /// Parse a command-line name (`none`, `aabb`, `bvh-mid`, `bvh-sah`).
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        crate::parse_name(s, &Self::ALL, Self::name, "acceleration structure")
     }
 }
 

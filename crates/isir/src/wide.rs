@@ -116,6 +116,14 @@ impl SimdLevel {
     }
 }
 
+impl std::str::FromStr for SimdLevel {
+    type Err = String;
+    /// Parse `scalar`, `avx2` or `avx512` (whether this CPU runs it is checked apart).
+    fn from_str(s: &str) -> Result<Self, String> {
+        crate::parse_name(s, &[SimdLevel::Scalar, SimdLevel::Avx2, SimdLevel::Avx512], Self::name, "SIMD level")
+    }
+}
+
 /// Counters of a traversal, for tree-quality figures (`isir trace`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct TraversalStats {
