@@ -6,9 +6,9 @@ use crate::trace::{build_timed, trace_timed, Mode, TraceFigures};
 use crate::{warn_all, with_threads};
 use anyhow::Context;
 use clap::Args;
-use isir::rays::{self, compare_hits, RayKind};
-use isir::scene::{MeshSource, ShapeDesc};
-use isir::Accel;
+use isir::rays::{self, compare_hits, HitRecord, RayKind};
+use isir::scene::{MeshSource, SceneDescription, ShapeDesc};
+use isir::{Accel, Scene};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -120,14 +120,24 @@ fn run_in_pool(a: &BenchArgs) -> anyhow::Result<()> {
         .with_context(|| format!("{name}: the scene has no mesh to benchmark"))?;
     let dir = a.keep.clone().unwrap_or_else(|| std::env::temp_dir().join(format!("isir-bench-{}", std::process::id())));
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+    let result = bench_in(a, &name, &desc, &scene, source, &dir);
+    if a.keep.is_none() {
+        std::fs::remove_dir_all(&dir).ok(); // on failure too
+    } else {
+        println!("files kept in {}", dir.display());
+    }
+    result
+}
 
+/// The benchmark proper, writing its files in `dir`.
+fn bench_in(a: &BenchArgs, name: &str, desc: &SceneDescription, scene: &Scene, source: MeshSource, dir: &Path) -> anyhow::Result<()> {
     // ---- The scene's mesh is the one traced; the three ray sets ----
     let mut mesh = scene.meshes().next().map(|(_, m)| m.clone()).with_context(|| format!("{name}: the scene has no mesh"))?;
     let camera = desc.camera.build(a.width as f32 / a.height as f32);
-    let kinds = [("primary", RayKind::Primary), ("diffuse", RayKind::Diffuse), ("shadow", RayKind::Shadow)];
     let mut sets = Vec::new();
-    for (label, kind) in kinds {
-        let set = rays::generate(&scene, &camera, a.width, a.height, kind, a.seed)?;
+    for kind in RayKind::ALL {
+        let label = kind.name();
+        let set = rays::generate(scene, &camera, a.width, a.height, kind, a.seed)?;
         let path = dir.join(format!("{label}.rays"));
         rays::write_rays(&path, &set)?;
         sets.push((label, kind, set, path));
@@ -142,7 +152,6 @@ fn run_in_pool(a: &BenchArgs) -> anyhow::Result<()> {
         .collect();
     // Coherent primary rays in packets, beside Embree's stream mode.
     let packets = trace_timed(&mesh, &sets[0].2, Mode::Packets, a.repeat);
-    let (build_ms, triangles) = (build.build_ms, build.stats.triangles);
 
     // ---- The mesh as a plain OBJ file, for Embree ----
     let obj_path = match &source {
@@ -175,7 +184,7 @@ fn run_in_pool(a: &BenchArgs) -> anyhow::Result<()> {
     // ---- Table ----
     println!(
         "isir bench: {name}, {} triangles ({} degenerate), {}x{} rays, {threads} threads, isir simd {}{}",
-        triangles,
+        build.stats.triangles,
         build.stats.degenerate,
         a.width,
         a.height,
@@ -186,67 +195,34 @@ fn run_in_pool(a: &BenchArgs) -> anyhow::Result<()> {
             .unwrap_or_else(|| ", embree-bench not found".into())
     );
     println!("{:<28} {:>12} {:>12} {:>12} {:>14}", "figure", "isir", "embree", "isir/embree", "hits agree");
-    let ratio = |ours: f64, theirs: f64| {
-        if theirs.is_finite() && theirs > 0.0 {
-            format!("{:.2}", ours / theirs)
-        } else {
-            "-".into()
-        }
+    // One row: isir's figure, Embree's (NaN when not run), their ratio, the hit agreement.
+    let cell = |x: f64| if x.is_finite() { format!("{x:.2}") } else { "-".to_string() };
+    let row = |label: &str, ours: f64, theirs: f64, with_ratio: bool, agree: &str| {
+        let ratio = if with_ratio && theirs.is_finite() && theirs > 0.0 { format!("{:.2}", ours / theirs) } else { String::new() };
+        println!("{label:<28} {ours:>12.2} {:>12} {ratio:>12} {agree:>14}", cell(theirs));
     };
-    let embree_build = theirs.iter().map(|m| num(m, "build_ms")).fold(f64::INFINITY, f64::min);
-    let embree_build_rate = triangles as f64 / (embree_build * 1e-3) * 1e-6;
-    println!(
-        "{:<28} {:>12.2} {:>12} {:>12} {:>14}",
-        "build (Mtris/s)",
-        triangles as f64 / (build_ms * 1e-3) * 1e-6,
-        if embree_build.is_finite() { format!("{embree_build_rate:.2}") } else { "-".into() },
-        ratio(triangles as f64 / (build_ms * 1e-3) * 1e-6, embree_build_rate),
-        ""
-    );
-    println!(
-        "{:<28} {:>12.2} {:>12} {:>12} {:>14}",
-        "build (ms)",
-        build_ms,
-        if embree_build.is_finite() { format!("{embree_build:.2}") } else { "-".into() },
-        "",
-        ""
-    );
+    let agreement = |file: &str, ours: &[HitRecord]| -> anyhow::Result<String> {
+        let theirs = rays::read_hits(&dir.join(file))?;
+        Ok(format!("{:.4}%", 100.0 * compare_hits(ours, &theirs, 1e-4).fraction()))
+    };
+    let embree_build = theirs.iter().map(|m| num(m, "build_ms")).fold(f64::NAN, f64::min);
+    let triangles = build.stats.triangles as f64;
+    row("build (Mtris/s)", build.build_mtris_per_s(), triangles / (embree_build * 1e-3) * 1e-6, true, "");
+    row("build (ms)", build.build_ms, embree_build, false, "");
     for (i, (label, kind, _, _)) in sets.iter().enumerate() {
-        let f = &ours[i];
-        let (e, agree) = match theirs.get(i) {
-            Some(m) => {
-                let hits = rays::read_hits(&dir.join(format!("{label}.embree.hits")))?;
-                let ag = compare_hits(&f.hit_records, &hits, 1e-4);
-                (num(m, "mrays_per_s"), format!("{:.4}%", 100.0 * ag.fraction()))
-            }
-            None => (f64::NAN, "-".into()),
-        };
         let q = if *kind == RayKind::Shadow { "occluded" } else { "closest" };
-        println!(
-            "{:<28} {:>12.2} {:>12} {:>12} {:>14}",
-            format!("{label} {q} (Mrays/s)"),
-            f.mrays_per_s(),
-            if e.is_finite() { format!("{e:.2}") } else { "-".into() },
-            ratio(f.mrays_per_s(), e),
-            agree
-        );
+        let (e, agree) = match theirs.get(i) {
+            Some(m) => (num(m, "mrays_per_s"), agreement(&format!("{label}.embree.hits"), &ours[i].hit_records)?),
+            None => (f64::NAN, "-".to_string()),
+        };
+        row(&format!("{label} {q} (Mrays/s)"), ours[i].mrays_per_s(), e, true, &agree);
     }
     // isir's packets of 16 against Embree's stream of 256 (its best mode on these rays).
     let (e, agree) = match &stream {
-        Some(m) => {
-            let hits = rays::read_hits(&dir.join("primary.embree-stream.hits"))?;
-            (num(m, "mrays_per_s"), format!("{:.4}%", 100.0 * compare_hits(&packets.hit_records, &hits, 1e-4).fraction()))
-        }
-        None => (f64::NAN, "-".into()),
+        Some(m) => (num(m, "mrays_per_s"), agreement("primary.embree-stream.hits", &packets.hit_records)?),
+        None => (f64::NAN, "-".to_string()),
     };
-    println!(
-        "{:<28} {:>12.2} {:>12} {:>12} {:>14}",
-        "primary packets/stream",
-        packets.mrays_per_s(),
-        if e.is_finite() { format!("{e:.2}") } else { "-".into() },
-        ratio(packets.mrays_per_s(), e),
-        agree
-    );
+    row("primary packets/stream", packets.mrays_per_s(), e, true, &agree);
     println!(
         "sah_cost: {:.3}  nodes: {}  bytes_per_triangle: {:.1}",
         build.stats.sah_cost, build.stats.nodes, build.stats.bytes_per_triangle
@@ -255,11 +231,6 @@ fn run_in_pool(a: &BenchArgs) -> anyhow::Result<()> {
         if let Some((n, t)) = ours[i].visits {
             println!("{label}: {} rays, {} hits, {n:.2} node visits and {t:.2} triangle tests per ray", set.len(), ours[i].hits);
         }
-    }
-    if a.keep.is_none() {
-        std::fs::remove_dir_all(&dir).ok();
-    } else {
-        println!("files kept in {}", dir.display());
     }
     Ok(())
 }
