@@ -42,7 +42,6 @@ impl WideBvh {
         use std::arch::x86_64::*;
 
         // ---- Load the packet as structure of arrays ----
-        let safe = |d: f32| if d.abs() < 1e-30 { 1e-30f32.copysign(d) } else { d };
         let mut a = [[0f32; PACKET]; 11]; // ox oy oz dx dy dz ix iy iz tmin tmax
         let mut active: u16 = 0;
         let mut neg: Option<[bool; 3]> = None;
@@ -52,16 +51,14 @@ impl WideBvh {
                 continue;
             }
             let d = r.direction;
-            let inv = [1.0 / safe(d.x), 1.0 / safe(d.y), 1.0 / safe(d.z)];
-            // The octant from the inverse (which keeps the sign of -0.0), as the box test
-            // uses it.
-            let signs = [inv[0] < 0.0, inv[1] < 0.0, inv[2] < 0.0];
+            // The same inverse and octant as the single-ray box test.
+            let (inv, signs) = crate::wide::slab_inverse(d);
             match neg {
                 None => neg = Some(signs),
                 Some(n) if n != signs => return false,
                 _ => {}
             }
-            let v = [r.origin.x, r.origin.y, r.origin.z, d.x, d.y, d.z, inv[0], inv[1], inv[2], r.t_min, r.t_max];
+            let v = [r.origin.x, r.origin.y, r.origin.z, d.x, d.y, d.z, inv.x, inv.y, inv.z, r.t_min, r.t_max];
             for (k, x) in v.into_iter().enumerate() {
                 a[k][i] = x;
             }

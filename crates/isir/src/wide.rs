@@ -483,12 +483,20 @@ struct RayPre {
 impl RayPre {
     #[inline(always)]
     fn new(ray: &Ray) -> Self {
-        // Zero direction components become tiny ones so no slab test computes 0·∞.
-        let safe = |d: f32| if d.abs() < 1e-30 { 1e-30f32.copysign(d) } else { d };
-        let d = ray.direction;
-        let inv = Vec3::new(1.0 / safe(d.x), 1.0 / safe(d.y), 1.0 / safe(d.z));
-        Self { origin: ray.origin, dir: d, inv, org_inv: ray.origin * inv, neg: [inv.x < 0.0, inv.y < 0.0, inv.z < 0.0] }
+        let (inv, neg) = slab_inverse(ray.direction);
+        Self { origin: ray.origin, dir: ray.direction, inv, org_inv: ray.origin * inv, neg }
     }
+}
+
+/// The inverse direction of the slab tests and the ray's octant (per axis, whether the
+/// near plane is the box's upper one). Zero components become ±1e-30 first, keeping their
+/// sign (also that of -0.0), so no slab test computes 0·∞; the octant is read from the
+/// inverse so it always agrees with it.
+#[inline(always)]
+pub(crate) fn slab_inverse(d: Vec3) -> (Vec3, [bool; 3]) {
+    let safe = |d: f32| if d.abs() < 1e-30 { 1e-30f32.copysign(d) } else { d };
+    let inv = Vec3::new(1.0 / safe(d.x), 1.0 / safe(d.y), 1.0 / safe(d.z));
+    (inv, [inv.x < 0.0, inv.y < 0.0, inv.z < 0.0])
 }
 
 /// Widen a box interval by a few ULPs so rounding never culls a hit: by scaling when
