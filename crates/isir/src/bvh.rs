@@ -420,7 +420,9 @@ struct Bin {
 
 const EMPTY_BIN: Bin = Bin { lo: Vec3A::INFINITY, hi: Vec3A::NEG_INFINITY, count: 0 };
 
-type Bins = [[Bin; SAH_BINS]; 3];
+/// Bins per axis; `NB` is the node's [`bin_count`], so a small node only initialises and
+/// sweeps the bins it uses.
+type Bins<const NB: usize> = [[Bin; NB]; 3];
 
 /// Maps a record's doubled centroid to its bin on each axis.
 #[derive(Clone, Copy)]
@@ -483,9 +485,9 @@ fn blocks(n: u32) -> f32 {
     n.div_ceil(SAH_BLOCK as u32) as f32
 }
 
-fn merge_bins(mut a: Bins, b: &Bins) -> Bins {
+fn merge_bins<const NB: usize>(mut a: Bins<NB>, b: &Bins<NB>) -> Bins<NB> {
     for axis in 0..3 {
-        for k in 0..SAH_BINS {
+        for k in 0..NB {
             a[axis][k].lo = a[axis][k].lo.min(b[axis][k].lo);
             a[axis][k].hi = a[axis][k].hi.max(b[axis][k].hi);
             a[axis][k].count += b[axis][k].count;
@@ -494,9 +496,10 @@ fn merge_bins(mut a: Bins, b: &Bins) -> Bins {
     a
 }
 
-fn bin_prims(prims: &[PrimRef], binner: &Binner) -> Bins {
+fn bin_prims<const NB: usize>(prims: &[PrimRef], binner: &Binner) -> Bins<NB> {
+    debug_assert_eq!(binner.count, NB);
     let fill = |chunk: &[PrimRef]| {
-        let mut bins = [[EMPTY_BIN; SAH_BINS]; 3];
+        let mut bins = [[EMPTY_BIN; NB]; 3];
         for p in chunk {
             let (lo, hi) = (p.lo(), p.hi());
             let k = binner.bins(p);
@@ -515,17 +518,18 @@ fn bin_prims(prims: &[PrimRef], binner: &Binner) -> Bins {
         use rayon::prelude::*;
         // Boxes merge by min/max and counts by addition: the result does not depend on
         // how the work was split, so the build is deterministic.
-        prims.par_chunks(16384).map(fill).reduce(|| [[EMPTY_BIN; SAH_BINS]; 3], |a, b| merge_bins(a, &b))
+        prims.par_chunks(16384).map(fill).reduce(|| [[EMPTY_BIN; NB]; 3], |a, b| merge_bins(a, &b))
     }
 }
 
 /// The best binned split: `(axis, first bin of the right side, cost)`.
-fn best_split(bins: &Bins, nb: usize) -> Option<(usize, usize, f32)> {
+fn best_split<const NB: usize>(bins: &Bins<NB>) -> Option<(usize, usize, f32)> {
+    let nb = NB;
     let mut best: Option<(usize, usize, f32)> = None;
     for (axis, bins) in bins.iter().enumerate() {
         // Right-to-left sweep: area × count of the right side of every plane.
-        let mut right_cost = [0.0f32; SAH_BINS];
-        let mut right_count = [0u32; SAH_BINS];
+        let mut right_cost = [0.0f32; NB];
+        let mut right_count = [0u32; NB];
         let mut acc = EMPTY_BIN;
         for k in (1..nb).rev() {
             acc.lo = acc.lo.min(bins[k].lo);
@@ -608,7 +612,12 @@ fn sah_split(prims: &mut [PrimRef], b: &Bounds, depth: u32) -> Option<(usize, Bo
         return None; // one block: no split can cost less
     }
     let binner = Binner::new(b, n);
-    let Some((axis, k, cost)) = best_split(&bin_prims(prims, &binner), binner.count) else {
+    let best = match binner.count {
+        SAH_BINS => best_split(&bin_prims::<SAH_BINS>(prims, &binner)),
+        16 => best_split(&bin_prims::<16>(prims, &binner)),
+        _ => best_split(&bin_prims::<8>(prims, &binner)),
+    };
+    let Some((axis, k, cost)) = best else {
         // Every centroid in one bin (e.g. doubled centroids overflowing to infinity):
         // the median keeps leaves within the limit the wide layout relies on.
         return (n > SAH_MAX_LEAF).then(|| median_split_refs(prims, axis));
