@@ -680,15 +680,14 @@ impl Part {
             Part::Built(nodes) => {
                 // The part's node `i > 0` lands at `base + i`.
                 let base = out.len() as u32 - 1;
-                let relocate = |n: &BvhNode| {
-                    let mut n = *n;
+                fn relocate(mut n: BvhNode, base: u32) -> BvhNode {
                     if !n.is_leaf() {
                         n.left_first += base;
                     }
                     n
-                };
-                out[slot] = relocate(&nodes[0]);
-                out.extend(nodes[1..].iter().map(relocate));
+                }
+                out[slot] = relocate(nodes[0], base);
+                out.extend(nodes[1..].iter().map(|&n| relocate(n, base)));
             }
         }
     }
