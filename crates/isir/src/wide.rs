@@ -365,7 +365,20 @@ impl WideBvh {
                         cur = node.child[mask.trailing_zeros() as usize];
                         continue;
                     }
-                    // Several hits: push them far to near, continue with the nearest.
+                    let l0 = mask.trailing_zeros() as usize;
+                    let rest = mask & (mask - 1);
+                    if rest & (rest - 1) == 0 {
+                        // Two hits (the most common case): push the far one. On a tie the
+                        // later lane goes first, as in the sort below.
+                        let l1 = rest.trailing_zeros() as usize;
+                        let (near, far) = if dist[l1] <= dist[l0] { (l1, l0) } else { (l0, l1) };
+                        // SAFETY: as for the pushes below.
+                        unsafe { stack.get_unchecked_mut(sp).write((node.child[far], dist[far])) };
+                        sp += 1;
+                        cur = node.child[near];
+                        continue;
+                    }
+                    // More hits: push them far to near, continue with the nearest.
                     let mut order = [(0f32, 0u32); 8];
                     let mut n = 0;
                     let mut m = mask;
