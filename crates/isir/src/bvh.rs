@@ -79,8 +79,9 @@ pub const SAH_BUILD_TRAVERSAL_COST: f32 = 0.7;
 pub const MIDPOINT_MAX_LEAF: usize = 8;
 /// Midpoint build: maximum depth (the course's `maxDepth`).
 pub const MIDPOINT_MAX_DEPTH: u32 = 32;
-/// SAH build: leaves never hold more than this many primitives.
-pub const SAH_MAX_LEAF: usize = 8;
+/// SAH build: leaves never hold more than this many primitives. PERF: 8 -> 16 measured
+/// primary +4%, diffuse +2% on the conference room (fewer node visits); 32 no better.
+pub const SAH_MAX_LEAF: usize = 16;
 /// SAH build: primitives are costed in blocks of this many, the number the wide BVH's
 /// leaves test at once, so a leaf of 1 to 4 triangles costs the same (as in Embree).
 pub const SAH_BLOCK: usize = 4;
