@@ -542,13 +542,24 @@ struct RayPre {
     org_inv: Vec3,
     /// Per axis, whether the direction is negative (then the near plane is `hi`).
     neg: [bool; 3],
+    /// Per axis, the byte offsets in a [`Node8`] of the near and the far plane (after
+    /// Embree: no per-node select of the planes).
+    near_far: [(usize, usize); 3],
 }
 
 impl RayPre {
     #[inline(always)]
     fn new(ray: &Ray) -> Self {
         let (inv, neg) = slab_inverse(ray.direction);
-        Self { origin: ray.origin, dir: ray.direction, inv, org_inv: ray.origin * inv, neg }
+        let near_far = std::array::from_fn(|axis| {
+            let (lo, hi) = (std::mem::offset_of!(Node8, lo) + 32 * axis, std::mem::offset_of!(Node8, hi) + 32 * axis);
+            if neg[axis] {
+                (hi, lo)
+            } else {
+                (lo, hi)
+            }
+        });
+        Self { origin: ray.origin, dir: ray.direction, inv, org_inv: ray.origin * inv, neg, near_far }
     }
 }
 
@@ -636,17 +647,19 @@ fn tri4_watertight(tri: &Tri4, w: &WatertightRay, t_min: f32, t_max: f32) -> Opt
 #[inline(always)]
 unsafe fn box_test_avx2(node: &Node8, pre: &RayPre, t_min: f32, t_max: f32, dist: &mut [f32; 8]) -> u32 {
     use std::arch::x86_64::*;
-    // SAFETY: the caller guarantees AVX2 and FMA; `Node8` is 32-byte aligned so the
-    // aligned loads are valid.
+    // SAFETY: the caller guarantees AVX2 and FMA. `near_far` holds offsets of planes
+    // (`[f32; 8]` at multiples of 32 bytes) inside the 32-byte aligned `Node8`, so the
+    // aligned loads read within the node.
     unsafe {
+        let base = std::ptr::from_ref(node).cast::<u8>();
         let mut near = _mm256_set1_ps(t_min);
         let mut far = _mm256_set1_ps(t_max);
         for axis in 0..3 {
-            let (n, f) = if pre.neg[axis] { (&node.hi[axis], &node.lo[axis]) } else { (&node.lo[axis], &node.hi[axis]) };
+            let (n, f) = pre.near_far[axis];
             let inv = _mm256_set1_ps(pre.inv[axis]);
             let oi = _mm256_set1_ps(pre.org_inv[axis]);
-            let tn = _mm256_fmsub_ps(_mm256_load_ps(n.as_ptr()), inv, oi);
-            let tf = _mm256_fmsub_ps(_mm256_load_ps(f.as_ptr()), inv, oi);
+            let tn = _mm256_fmsub_ps(_mm256_load_ps(base.add(n).cast()), inv, oi);
+            let tf = _mm256_fmsub_ps(_mm256_load_ps(base.add(f).cast()), inv, oi);
             near = _mm256_max_ps(near, tn);
             far = _mm256_min_ps(far, tf);
         }
