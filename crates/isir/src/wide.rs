@@ -274,8 +274,7 @@ impl WideBvh {
             return None;
         }
         match self.level {
-            // SAFETY: the scalar instantiation runs no SIMD instruction beyond SSE2.
-            SimdLevel::Scalar => unsafe { self.traverse::<false, ANY, STATS>(ray, t_min, t_max, stats) },
+            SimdLevel::Scalar => self.traverse_scalar::<ANY, STATS>(ray, t_min, t_max, stats),
             #[cfg(target_arch = "x86_64")]
             // SAFETY: `level` is only ever set to a level `SimdLevel::available` reported.
             SimdLevel::Avx2 => unsafe { self.traverse_avx2::<ANY, STATS>(ray, t_min, t_max, stats) },
@@ -285,6 +284,20 @@ impl WideBvh {
             #[cfg(not(target_arch = "x86_64"))]
             _ => unreachable!(),
         }
+    }
+
+    /// The portable path. PERF: not inlined, so that `dispatch` stays a small function
+    /// (inlined, the traversal stack of this path enlarged every call's frame).
+    #[inline(never)]
+    fn traverse_scalar<const ANY: bool, const STATS: bool>(
+        &self,
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+        stats: &mut TraversalStats,
+    ) -> Option<MeshHit> {
+        // SAFETY: the scalar instantiation runs no SIMD instruction beyond SSE2.
+        unsafe { self.traverse::<false, ANY, STATS>(ray, t_min, t_max, stats) }
     }
 
     #[cfg(target_arch = "x86_64")]
