@@ -4,7 +4,8 @@
 //!
 //! Built by collapsing the binary SAH [`Bvh`]: each wide node takes the two children of a
 //! binary node and repeatedly opens the child with the largest surface area until it has
-//! eight. Leaves keep the binary leaves' triangles.
+//! eight; its lanes are then ordered by decreasing box area (any-hit queries try them in
+//! that order). Leaves keep the binary leaves' triangles.
 //!
 //! # Layouts
 //! - [`Node8`] (224 bytes, 32-byte aligned): the eight child boxes as structure of
