@@ -52,6 +52,14 @@ impl BvhNode {
     fn interior(b: &Aabb, first_child: u32) -> Self {
         Self { min: b.min.into(), left_first: first_child, max: b.max.into(), count: 0 }
     }
+
+    /// This node with its children's index moved by `base` (a leaf is unchanged).
+    fn relocated(mut self, base: u32) -> Self {
+        if !self.is_leaf() {
+            self.left_first += base;
+        }
+        self
+    }
 }
 
 /// How to build.
@@ -525,14 +533,13 @@ fn bin_prims<const NB: usize>(prims: &[PrimRef], binner: &Binner) -> Bins<NB> {
 
 /// The best binned split: `(axis, first bin of the right side, cost)`.
 fn best_split<const NB: usize>(bins: &Bins<NB>) -> Option<(usize, usize, f32)> {
-    let nb = NB;
     let mut best: Option<(usize, usize, f32)> = None;
     for (axis, bins) in bins.iter().enumerate() {
         // Right-to-left sweep: area × count of the right side of every plane.
         let mut right_cost = [0.0f32; NB];
         let mut right_count = [0u32; NB];
         let mut acc = EMPTY_BIN;
-        for k in (1..nb).rev() {
+        for k in (1..NB).rev() {
             acc.lo = acc.lo.min(bins[k].lo);
             acc.hi = acc.hi.max(bins[k].hi);
             acc.count += bins[k].count;
@@ -540,7 +547,7 @@ fn best_split<const NB: usize>(bins: &Bins<NB>) -> Option<(usize, usize, f32)> {
             right_count[k] = acc.count;
         }
         let mut left = EMPTY_BIN;
-        for k in 1..nb {
+        for k in 1..NB {
             left.lo = left.lo.min(bins[k - 1].lo);
             left.hi = left.hi.max(bins[k - 1].hi);
             left.count += bins[k - 1].count;
@@ -616,7 +623,8 @@ fn sah_split(prims: &mut [PrimRef], b: &Bounds, depth: u32) -> Option<(usize, Bo
     let best = match binner.count {
         SAH_BINS => best_split(&bin_prims::<SAH_BINS>(prims, &binner)),
         16 => best_split(&bin_prims::<16>(prims, &binner)),
-        _ => best_split(&bin_prims::<8>(prims, &binner)),
+        8 => best_split(&bin_prims::<8>(prims, &binner)),
+        n => unreachable!("no bin array of {n} bins"),
     };
     let Some((axis, k, cost)) = best else {
         // Every centroid in one bin (e.g. doubled centroids overflowing to infinity):
@@ -681,14 +689,8 @@ impl Part {
             Part::Built(nodes) => {
                 // The part's node `i > 0` lands at `base + i`.
                 let base = out.len() as u32 - 1;
-                fn relocate(mut n: BvhNode, base: u32) -> BvhNode {
-                    if !n.is_leaf() {
-                        n.left_first += base;
-                    }
-                    n
-                }
-                out[slot] = relocate(nodes[0], base);
-                out.extend(nodes[1..].iter().map(|&n| relocate(n, base)));
+                out[slot] = nodes[0].relocated(base);
+                out.extend(nodes[1..].iter().map(|n| n.relocated(base)));
             }
         }
     }
@@ -842,6 +844,23 @@ mod tests {
         assert_eq!(a.nodes, b.nodes);
         assert_eq!(a.prim_indices, b.prim_indices);
         check_invariants(&a, &boxes, boxes.len());
+    }
+
+    #[test]
+    fn parallel_top_flattens_to_the_sequential_layout() {
+        // The `Part` tree of the parallel build, flattened, is node for node the tree the
+        // sequential build lays out: children adjacent, indices relocated right.
+        let boxes = random_boxes(50_000, 13);
+        let indices: Vec<u32> = (0..boxes.len() as u32).collect();
+        let (nodes, prims) = build_sah(&boxes, &indices);
+        let mut refs: Vec<PrimRef> =
+            boxes.iter().enumerate().map(|(i, b)| PrimRef { min: b.min.into(), index: i as u32, max: b.max.into(), _pad: 0 }).collect();
+        let bounds = Bounds::of(&refs);
+        let mut seq = vec![BvhNode::default()];
+        build_sah_into(&mut seq, 0, &mut refs, &bounds, 0, 0);
+        assert!(nodes.len() > 1000);
+        assert_eq!(nodes, seq);
+        assert_eq!(prims, refs.iter().map(|p| p.index).collect::<Vec<_>>());
     }
 
     #[test]

@@ -149,7 +149,7 @@ impl WideBvh {
                 // (Empty lanes are skipped when children are pushed.)
                 debug_assert!(cur != EMPTY);
                 for b in leaf_blocks(cur) {
-                    // SAFETY: leaf codes index `tris` (`make_leaf` wrote them).
+                    // SAFETY: leaf codes index `tris` (`Collapse::convert` wrote them).
                     let tri = self.tris.get_unchecked(b);
                     for lane in 0..4 {
                         let id = tri.prim[lane];
