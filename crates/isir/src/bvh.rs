@@ -702,7 +702,8 @@ impl Part {
 /// was 5% of the build; [`Part::flatten`] copies each node once.
 fn build_sah_parallel(prims: &mut [PrimRef], b: &Bounds, first: u32, depth: u32) -> Part {
     if prims.len() <= PARALLEL_THRESHOLD {
-        let mut nodes = Vec::with_capacity(prims.len() / 2 + 1);
+        // At most 2n - 1 nodes: reserved so the array never grows (and copies).
+        let mut nodes = Vec::with_capacity(2 * prims.len());
         nodes.push(BvhNode::default());
         build_sah_into(&mut nodes, 0, prims, b, first, depth);
         return Part::Built(nodes);
