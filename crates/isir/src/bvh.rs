@@ -140,11 +140,20 @@ impl Bvh {
                 build_midpoint(&input, &mut nodes, 0, &mut indices, 0, 0);
                 Bvh { nodes, prim_indices: indices }
             }
-            BvhQuality::Sah => {
-                let (nodes, prim_indices) = build_sah(boxes, &indices);
-                Bvh { nodes, prim_indices }
-            }
+            BvhQuality::Sah => Bvh::build_sah(&indices, |i| boxes[i as usize]),
         }
+    }
+
+    /// The SAH build over primitives `indices`, whose boxes `box_of` gives on demand (no
+    /// box array is made: the boxes go straight into the build's records). The caller
+    /// passes only primitives with finite, non-empty boxes.
+    #[must_use]
+    pub fn build_sah(indices: &[u32], box_of: impl Fn(u32) -> Aabb + Sync) -> Bvh {
+        if indices.is_empty() {
+            return Bvh::default();
+        }
+        let (nodes, prim_indices) = build_sah(indices, box_of);
+        Bvh { nodes, prim_indices }
     }
 
     /// The root's box (empty for an empty BVH).
@@ -717,12 +726,12 @@ fn build_sah_parallel(prims: &mut [PrimRef], b: &Bounds, first: u32, depth: u32)
 }
 
 /// The SAH build from primitive boxes (only the valid ones are passed in `indices`).
-fn build_sah(boxes: &[Aabb], indices: &[u32]) -> (Vec<BvhNode>, Vec<u32>) {
+fn build_sah(indices: &[u32], box_of: impl Fn(u32) -> Aabb + Sync) -> (Vec<BvhNode>, Vec<u32>) {
     use rayon::prelude::*;
     let mut prims: Vec<PrimRef> = indices
         .par_iter()
         .map(|&i| {
-            let b = &boxes[i as usize];
+            let b = box_of(i);
             PrimRef { min: b.min.into(), index: i, max: b.max.into(), _pad: 0 }
         })
         .collect();
@@ -853,7 +862,7 @@ mod tests {
         // sequential build lays out: children adjacent, indices relocated right.
         let boxes = random_boxes(50_000, 13);
         let indices: Vec<u32> = (0..boxes.len() as u32).collect();
-        let (nodes, prims) = build_sah(&boxes, &indices);
+        let (nodes, prims) = build_sah(&indices, |i| boxes[i as usize]);
         let mut refs: Vec<PrimRef> =
             boxes.iter().enumerate().map(|(i, b)| PrimRef { min: b.min.into(), index: i as u32, max: b.max.into(), _pad: 0 }).collect();
         let bounds = Bounds::of(&refs);
