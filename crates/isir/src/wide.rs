@@ -120,7 +120,12 @@ impl SimdLevel {
         let mut v = vec![SimdLevel::Scalar];
         #[cfg(target_arch = "x86_64")]
         {
-            if is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma") {
+            if is_x86_feature_detected!("avx2")
+                && is_x86_feature_detected!("fma")
+                && is_x86_feature_detected!("popcnt")
+                && is_x86_feature_detected!("bmi1")
+                && is_x86_feature_detected!("lzcnt")
+            {
                 v.push(SimdLevel::Avx2);
                 if is_x86_feature_detected!("avx512f")
                     && is_x86_feature_detected!("avx512vl")
@@ -302,7 +307,7 @@ impl WideBvh {
     }
 
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma")]
+    #[target_feature(enable = "avx2,fma,popcnt,bmi1,lzcnt")]
     unsafe fn traverse_avx2<const ANY: bool, const STATS: bool>(
         &self,
         ray: &Ray,
@@ -314,7 +319,7 @@ impl WideBvh {
     }
 
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma,avx512f,avx512vl,avx512dq,avx512bw")]
+    #[target_feature(enable = "avx2,fma,popcnt,bmi1,lzcnt,avx512f,avx512vl,avx512dq,avx512bw")]
     unsafe fn traverse_avx512<const ANY: bool, const STATS: bool>(
         &self,
         ray: &Ray,
@@ -392,6 +397,29 @@ impl WideBvh {
                         unsafe { stack.get_unchecked_mut(sp).write((node.child[far], dist[far])) };
                         sp += 1;
                         cur = node.child[near];
+                        continue;
+                    }
+                    if SIMD {
+                        // More hits: each lane's rank (how many hit lanes are nearer) is
+                        // its place, far to near from `sp`; the nearest lands one past the
+                        // pushed entries and is read back. No data-dependent branch.
+                        let n = mask.count_ones() as usize;
+                        debug_assert!(sp + n <= STACK_SIZE);
+                        // SAFETY: with `SIMD` the caller guarantees AVX2.
+                        let keys = unsafe { sort_keys(&dist) };
+                        let mut m = mask;
+                        while m != 0 {
+                            let lane = m.trailing_zeros() as usize;
+                            m &= m - 1;
+                            // SAFETY: as above.
+                            let rank = unsafe { nearer_count(keys, lane, mask) };
+                            // SAFETY: sp + n <= STACK_SIZE: at most eight entries are
+                            // written per level and `from_bvh` checks the depth.
+                            unsafe { stack.get_unchecked_mut(sp + n - 1 - rank).write((node.child[lane], dist[lane])) };
+                        }
+                        sp += n - 1;
+                        // SAFETY: written just above (rank 0).
+                        cur = unsafe { stack.get_unchecked(sp).assume_init() }.0;
                         continue;
                     }
                     // More hits: push them far to near, continue with the nearest.
@@ -543,6 +571,53 @@ impl Collapse {
         }
         slot as u32
     }
+}
+
+/// Sort keys of eight entry distances: the float bits made to compare as signed
+/// integers (negative floats reversed), the lowest three bits replaced by `7 - lane` so
+/// that keys are distinct and ties go to the higher lane, as the insertion sort orders
+/// them (after Embree's sorting of hit children in vector registers).
+///
+/// # Safety
+/// The CPU must have AVX2.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn sort_keys(dist: &[f32; 8]) -> std::arch::x86_64::__m256i {
+    use std::arch::x86_64::*;
+    // SAFETY: the caller guarantees AVX2; the load reads the eight floats of `dist`.
+    unsafe {
+        let d = _mm256_loadu_si256(dist.as_ptr().cast());
+        let sign = _mm256_srai_epi32::<31>(d);
+        let ordered = _mm256_xor_si256(d, _mm256_and_si256(sign, _mm256_set1_epi32(0x7FFF_FFFF)));
+        _mm256_or_si256(_mm256_and_si256(ordered, _mm256_set1_epi32(!7)), _mm256_setr_epi32(7, 6, 5, 4, 3, 2, 1, 0))
+    }
+}
+
+/// How many lanes of `mask` have a smaller key than `lane`.
+///
+/// # Safety
+/// The CPU must have AVX2.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn nearer_count(keys: std::arch::x86_64::__m256i, lane: usize, mask: u32) -> usize {
+    use std::arch::x86_64::*;
+    // SAFETY: the caller guarantees AVX2.
+    unsafe {
+        let key = _mm256_permutevar8x32_epi32(keys, _mm256_set1_epi32(lane as i32));
+        (_mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpgt_epi32(key, keys))) as u32 & mask).count_ones() as usize
+    }
+}
+
+#[cfg(not(target_arch = "x86_64"))]
+#[inline(always)]
+unsafe fn sort_keys(dist: &[f32; 8]) -> [f32; 8] {
+    *dist
+}
+
+#[cfg(not(target_arch = "x86_64"))]
+#[inline(always)]
+unsafe fn nearer_count(keys: [f32; 8], lane: usize, mask: u32) -> usize {
+    (0..8).filter(|&j| mask & (1 << j) != 0 && (keys[j] < keys[lane] || (keys[j] == keys[lane] && j > lane))).count()
 }
 
 /// The triangle blocks a leaf's child code names.
