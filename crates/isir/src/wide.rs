@@ -107,9 +107,9 @@ impl Tri4 {
 pub enum SimdLevel {
     /// Portable scalar code.
     Scalar,
-    /// AVX2 and FMA.
+    /// AVX2 and FMA (with POPCNT, BMI1 and LZCNT, which every AVX2 CPU has).
     Avx2,
-    /// AVX-512 (F, VL, DQ, BW) besides AVX2 and FMA.
+    /// AVX-512 (F, VL, DQ, BW) besides the above.
     Avx512,
 }
 
@@ -334,7 +334,7 @@ impl WideBvh {
     /// compiled with AVX2); `ANY` stops at the first hit.
     ///
     /// # Safety
-    /// With `SIMD`, the CPU must have AVX2 and FMA.
+    /// With `SIMD`, the CPU must have what [`SimdLevel::Avx2`] names.
     #[inline(always)]
     unsafe fn traverse<const SIMD: bool, const ANY: bool, const STATS: bool>(
         &self,
