@@ -7,7 +7,7 @@ use std::path::Path;
 /// How linear colours become 8-bit pixels.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Display {
-    /// The course's output: each channel clamped to [0,1], times 255, truncated; no gamma.
+    /// The course's output: each channel clamped to `[0, 1]`, times 255, truncated; no gamma.
     /// The course scenes use it so they look like the course's images.
     #[default]
     LinearClamp,

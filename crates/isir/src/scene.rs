@@ -211,7 +211,7 @@ impl CameraDesc {
 pub enum MeshSource {
     /// An OBJ file (`.obj` or `.obj.gz`).
     File(PathBuf),
-    /// A model shipped inside the library (see [`crate::scenes::builtin_model`]).
+    /// A model shipped inside the library (see [`crate::scenes::load_builtin_model`]).
     Builtin(&'static str),
 }
 

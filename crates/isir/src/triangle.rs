@@ -1,4 +1,4 @@
-//! Ray–triangle intersection: Möller–Trumbore [MT97] (TP4 question 1) and the watertight
+//! Ray–triangle intersection: Möller–Trumbore (MT97) (TP4 question 1) and the watertight
 //! test of Woop, Benthin and Wald (JCGT 2013).
 //!
 //! Both return `t` and the barycentrics `(u, v)` of Möller–Trumbore: the hit point is
