@@ -499,7 +499,8 @@ impl WideBvh {
 
 /// The binary nodes that become the children of the wide node made from binary node
 /// `index` (interior): its two children, then repeatedly the children of the largest
-/// interior one, until there are eight or only leaves are left.
+/// interior one, until there are eight or only leaves are left. Returns them, their
+/// boxes' half areas (in the same order) and how many there are.
 fn open(bvh: &Bvh, index: usize) -> ([usize; 8], [f32; 8], usize) {
     // Per kid: its surface area, and whether it can be opened (interior).
     let info = |k: usize| {
