@@ -91,8 +91,8 @@ impl WideBvh {
         loop {
             if cur & LEAF == 0 {
                 // ---- Inner node: eight boxes, each against sixteen rays ----
-                // SAFETY: inner-node codes are indices into `nodes`, written by `convert`.
-                let node = self.nodes.get_unchecked(cur as usize);
+                // SAFETY: inner-node codes are written by `convert`.
+                let node = self.node_at(cur);
                 let mut order = [(0f32, 0u32, 0u16, _mm512_setzero_ps()); 8];
                 let mut n = 0;
                 for c in 0..8 {

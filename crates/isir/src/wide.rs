@@ -2,10 +2,10 @@
 //! intersection-ready four to a block in the leaves (after Embree's BVH8 + Triangle4
 //! and Fuetterling et al., "Accelerated single ray tracing for wide vector units", 2017).
 //!
-//! Built by collapsing the binary SAH [`Bvh`]: each wide node takes the two children of a
-//! binary node and repeatedly opens the child with the largest surface area until it has
-//! eight; its lanes are then ordered by decreasing box area (any-hit queries try them in
-//! that order). Leaves keep the binary leaves' triangles.
+//! Built by collapsing the binary SAH [`Bvh`] the SAH-optimal way (a dynamic program over
+//! the binary tree chooses which binary nodes become wide nodes, which become lanes and
+//! which small subtrees become one leaf of up to 16 triangles); each node's lanes are then
+//! ordered by decreasing box area (any-hit queries try them in that order).
 //!
 //! # Layouts
 //! - [`Node8`] (224 bytes, 32-byte aligned): the eight child boxes as structure of
@@ -210,12 +210,26 @@ impl WideBvh {
         // parts copies them).
         let mut c = Collapse { nodes: Vec::with_capacity(bvh.nodes.len() / 4 + 1), ..Collapse::default() };
         c.blocks.reserve(bvh.prim_indices.len() / 3 + 1);
-        w.root = c.convert(bvh, 0, 1);
+        let plan = Plan::new(bvh);
+        w.root = c.convert(bvh, &plan, 0, 1);
         assert!(c.depth * 7 + 8 <= STACK_SIZE, "wide BVH too deep ({}) for the traversal stack", c.depth);
         w.depth = c.depth;
         w.nodes = c.nodes;
         w.tris = c.blocks.par_iter().with_min_len(1024).map(|prims| Tri4::new(mesh, prims, watertight)).collect();
         w
+    }
+
+    /// The node at byte offset `code` in `nodes`.
+    ///
+    /// # Safety
+    /// `code` must be an inner-node code written by `convert`.
+    #[inline(always)]
+    pub(crate) unsafe fn node_at(&self, code: u32) -> &Node8 {
+        debug_assert!(
+            (code as usize).is_multiple_of(std::mem::size_of::<Node8>()) && (code as usize) < std::mem::size_of_val(&self.nodes[..])
+        );
+        // SAFETY: the caller guarantees a byte offset of a node in `nodes`.
+        unsafe { &*self.nodes.as_ptr().cast::<u8>().add(code as usize).cast::<Node8>() }
     }
 
     /// Number of wide nodes.
@@ -354,9 +368,9 @@ impl WideBvh {
         loop {
             if cur & LEAF == 0 {
                 // ---- Inner node: test eight boxes, visit near to far ----
-                debug_assert!((cur as usize) < self.nodes.len());
-                // SAFETY: child codes are written by `convert` and index `nodes`.
-                let node = unsafe { self.nodes.get_unchecked(cur as usize) };
+                // SAFETY: inner-node codes are byte offsets of nodes in `nodes`, written by
+                // `convert`.
+                let node = unsafe { self.node_at(cur) };
                 if STATS {
                     stats.nodes += 1;
                 }
@@ -497,35 +511,140 @@ impl WideBvh {
     }
 }
 
-/// The binary nodes that become the children of the wide node made from binary node
-/// `index` (interior): its two children, then repeatedly the children of the largest
-/// interior one, until there are eight or only leaves are left. Returns them, their
-/// boxes' half areas (in the same order) and how many there are.
-fn open(bvh: &Bvh, index: usize) -> ([usize; 8], [f32; 8], usize) {
-    // Per kid: its surface area, and whether it can be opened (interior).
-    let info = |k: usize| {
-        let n = &bvh.nodes[k];
-        (n.aabb().half_area(), !n.is_leaf())
-    };
-    let mut kids = [0usize; 8];
-    let mut info_of = [(0f32, false); 8];
-    let first = bvh.nodes[index].left_first as usize;
-    (kids[0], kids[1], info_of[0], info_of[1]) = (first, first + 1, info(first), info(first + 1));
-    let mut n = 2;
-    while n < 8 {
-        // The largest interior kid; on a tie, the earlier lane.
-        let mut best: Option<usize> = None;
-        for j in 0..n {
-            if info_of[j].1 && best.is_none_or(|i| info_of[j].0 > info_of[i].0) {
-                best = Some(j);
+/// The cost of testing one wide node, relative to one block of four triangles, in the
+/// SAH of the collapse.
+const WIDE_NODE_COST: f32 = 1.0;
+/// The collapse may merge a binary subtree of at most this many triangles into one leaf.
+const WIDE_MAX_LEAF: u32 = 16;
+
+/// The SAH-optimal collapse of a binary BVH into eight-wide nodes (the dynamic program of
+/// Ylitie, Karras and Laine, "Efficient incoherent ray traversal on GPUs through
+/// compressed wide BVHs", 2017). Bottom-up, each binary node gets the least SAH cost of
+/// its subtree as at most `i` roots (leaves or wide nodes), for `i` in 1..=8; the plan
+/// keeps, per node, how each is reached.
+struct Plan {
+    /// Per binary node: bits `3(i-1)..3i` hold how many of at most `i` roots come from
+    /// the left child (0: the node itself is the one root); bit [`Plan::LEAF`]: as one
+    /// root, the node is a leaf (else a wide node). Written once per node, by whichever
+    /// thread plans it (atomics only to share the array; relaxed stores are plain stores).
+    choice: Vec<std::sync::atomic::AtomicU32>,
+    /// The SAH cost of the whole wide tree, as one root.
+    cost: f32,
+}
+
+/// What the parent of a planned subtree needs: its costs as at most 1..=8 roots, and its
+/// primitives in `prim_indices` (first, count; count `u32::MAX` when not contiguous, so
+/// it cannot become one leaf).
+struct Planned {
+    cost: [f32; 8],
+    first: u32,
+    count: u32,
+}
+
+/// `shared[i]`: the least cost of at most `i` roots taken from two subtrees of costs `l`
+/// and `r`, each giving at least one (`shared[0]`, `shared[1]`: infinite). PERF: a
+/// branch-free, vectorized min-plus product (with the branchy loop the plan took 8 ms
+/// on the conference room).
+#[inline]
+fn shared_roots(l: &[f32; 8], r: &[f32; 8]) -> [f32; 9] {
+    // `rp[8 + j]`: the cost of `j >= 1` roots from `r`; infinite for `j <= 0`.
+    let mut rp = [f32::INFINITY; 17];
+    rp[9..].copy_from_slice(r);
+    let mut shared = [f32::INFINITY; 9];
+    for (a, &la) in l.iter().enumerate().take(7).map(|(k, c)| (k + 1, c)) {
+        for (i, s) in shared.iter_mut().enumerate() {
+            let c = la + rp[8 + i - a];
+            *s = if c < *s { c } else { *s };
+        }
+    }
+    shared
+}
+
+impl Plan {
+    const LEAF: u32 = 24;
+    /// Binary subtrees planned on both cores down to this depth.
+    const PARALLEL_DEPTH: u32 = 6;
+
+    fn new(bvh: &Bvh) -> Plan {
+        let mut plan = Plan { choice: (0..bvh.nodes.len()).map(|_| std::sync::atomic::AtomicU32::new(0)).collect(), cost: 0.0 };
+        plan.cost = plan.visit(bvh, 0, 0).cost[0];
+        plan
+    }
+
+    /// Plan the subtree at `index`, children first.
+    fn visit(&self, bvh: &Bvh, index: usize, depth: u32) -> Planned {
+        let node = &bvh.nodes[index];
+        let area = node.aabb().half_area();
+        let blocks = |count: u32| count.div_ceil(4) as f32;
+        if node.is_leaf() {
+            return Planned { cost: [area * blocks(node.count); 8], first: node.left_first, count: node.count };
+        }
+        let l = node.left_first as usize;
+        let (a, b) = if depth < Self::PARALLEL_DEPTH {
+            rayon::join(|| self.visit(bvh, l, depth + 1), || self.visit(bvh, l + 1, depth + 1))
+        } else {
+            (self.visit(bvh, l, depth + 1), self.visit(bvh, l + 1, depth + 1))
+        };
+        let count = if a.count != u32::MAX && b.count != u32::MAX && a.first + a.count == b.first { a.count + b.count } else { u32::MAX };
+        let shared = shared_roots(&a.cost, &b.cost);
+        let wide = area * WIDE_NODE_COST + shared[8];
+        let leaf = if count <= WIDE_MAX_LEAF { area * blocks(count) } else { f32::INFINITY };
+        let single = wide.min(leaf);
+        let mut choice = u32::from(leaf <= wide) << Self::LEAF;
+        let cost = std::array::from_fn(|i| {
+            if shared[i + 1] < single {
+                // The first split reaching the minimum.
+                let k = (1..=i).find(|&k| a.cost[k - 1] + b.cost[i - k] == shared[i + 1]).expect("the minimum is a sum");
+                choice |= (k as u32) << (3 * i);
+                shared[i + 1]
+            } else {
+                single
+            }
+        });
+        self.choice[index].store(choice, std::sync::atomic::Ordering::Relaxed);
+        Planned { cost, first: a.first, count }
+    }
+
+    /// Whether binary node `index`, as one root, is a leaf.
+    fn is_leaf(&self, bvh: &Bvh, index: usize) -> bool {
+        bvh.nodes[index].is_leaf() || self.choice[index].load(std::sync::atomic::Ordering::Relaxed) >> Self::LEAF & 1 != 0
+    }
+
+    /// How many of at most `i` roots of binary node `index` come from its left child (0:
+    /// the node is the one root).
+    fn split(&self, bvh: &Bvh, index: usize, i: usize) -> usize {
+        if bvh.nodes[index].is_leaf() {
+            return 0;
+        }
+        (self.choice[index].load(std::sync::atomic::Ordering::Relaxed) >> (3 * (i - 1)) & 7) as usize
+    }
+
+    /// The roots of binary node `index`'s subtree as at most `i` roots, appended to `out`.
+    fn roots(&self, bvh: &Bvh, index: usize, i: usize, out: &mut [usize; 8], n: &mut usize) {
+        match self.split(bvh, index, i) {
+            0 => {
+                out[*n] = index;
+                *n += 1;
+            }
+            k => {
+                let l = bvh.nodes[index].left_first as usize;
+                self.roots(bvh, l, k, out, n);
+                self.roots(bvh, l + 1, i - k, out, n);
             }
         }
-        let Some(i) = best else { break }; // only leaves left
-        let c = bvh.nodes[kids[i]].left_first as usize;
-        (kids[i], kids[n], info_of[i], info_of[n]) = (c, c + 1, info(c), info(c + 1));
-        n += 1;
     }
-    (kids, info_of.map(|(area, _)| area), n)
+}
+
+/// The primitives of binary node `index`'s subtree, contiguous in `prim_indices` (the
+/// plan makes a leaf of a subtree only then): first, count.
+fn subtree_prims(bvh: &Bvh, index: usize) -> (u32, u32) {
+    let node = &bvh.nodes[index];
+    if node.is_leaf() {
+        return (node.left_first, node.count);
+    }
+    let l = node.left_first as usize;
+    let ((first, a), (_, b)) = (subtree_prims(bvh, l), subtree_prims(bvh, l + 1));
+    (first, a + b)
 }
 
 /// A wide tree (or part of one) being collapsed: nodes, and the triangle numbers of each
@@ -538,12 +657,13 @@ struct Collapse {
 }
 
 impl Collapse {
-    /// Convert the binary subtree at `index`, appending its wide nodes to `self.nodes`
-    /// and its leaves' triangle numbers, four per block, to `self.blocks`. Returns its code.
-    fn convert(&mut self, bvh: &Bvh, index: usize, depth: usize) -> u32 {
-        let node = &bvh.nodes[index];
-        if node.is_leaf() {
-            let prims = &bvh.prim_indices[node.left_first as usize..(node.left_first + node.count) as usize];
+    /// Convert the binary subtree at `index` as `plan` says, appending its wide nodes to
+    /// `self.nodes` and its leaves' triangle numbers, four per block, to `self.blocks`.
+    /// Returns its code.
+    fn convert(&mut self, bvh: &Bvh, plan: &Plan, index: usize, depth: usize) -> u32 {
+        if plan.is_leaf(bvh, index) {
+            let (first, count) = subtree_prims(bvh, index);
+            let prims = &bvh.prim_indices[first as usize..(first + count) as usize];
             let first = self.blocks.len() as u32;
             let count = prims.len().div_ceil(4);
             assert!(count <= MAX_BLOCKS && first <= FIRST_MASK, "leaf too large for the wide layout");
@@ -555,22 +675,28 @@ impl Collapse {
             return LEAF | ((count as u32 - 1) << BLOCKS_SHIFT) | first;
         }
         self.depth = self.depth.max(depth);
-        let (kids, areas, n) = open(bvh, index);
+        let (mut kids, mut n) = ([0usize; 8], 0);
+        let (l, k) = (bvh.nodes[index].left_first as usize, plan.split(bvh, index, 8));
+        plan.roots(bvh, l, k, &mut kids, &mut n);
+        plan.roots(bvh, l + 1, 8 - k, &mut kids, &mut n);
         let slot = self.nodes.len();
         self.nodes.push(Node8::EMPTY);
         let mut codes = [EMPTY; 8];
         for (code, &k) in codes.iter_mut().zip(&kids[..n]) {
-            *code = self.convert(bvh, k, depth + 1);
+            *code = self.convert(bvh, plan, k, depth + 1);
         }
         // Lanes by decreasing box area (stable): any-hit queries try lanes in order, and
         // a large box is the likeliest to hold an occluder. PERF: shadow rays +4%. The
         // subtrees stay in the order above, so the memory layout does not change.
+        let areas: [f32; 8] = std::array::from_fn(|i| if i < n { bvh.nodes[kids[i]].aabb().half_area() } else { 0.0 });
         let mut lanes: [usize; 8] = std::array::from_fn(|i| i);
         lanes[..n].sort_by(|&a, &b| areas[b].total_cmp(&areas[a]));
         for (lane, &i) in lanes[..n].iter().enumerate() {
             self.nodes[slot].set(lane, &bvh.nodes[kids[i]].aabb(), codes[i]);
         }
-        slot as u32
+        let code = slot * std::mem::size_of::<Node8>();
+        assert!(code < LEAF as usize, "too many wide nodes for 31-bit node offsets");
+        code as u32
     }
 }
 
@@ -878,6 +1004,64 @@ mod tests {
         TriangleMesh::new(vertices, Vec::new(), triangles)
     }
 
+    /// The SAH cost of a wide tree as the plan counts it: wide nodes and leaves by the
+    /// half area of their box.
+    fn wide_sah_cost(w: &WideBvh, root_area: f32) -> f32 {
+        let lane_area = |n: &Node8, lane: usize| {
+            crate::Aabb::new(Vec3::new(n.lo[0][lane], n.lo[1][lane], n.lo[2][lane]), Vec3::new(n.hi[0][lane], n.hi[1][lane], n.hi[2][lane]))
+                .half_area()
+        };
+        let mut cost = if w.root & LEAF == 0 { root_area * WIDE_NODE_COST } else { root_area * leaf_blocks(w.root).len() as f32 };
+        for n in &w.nodes {
+            for (lane, &code) in n.child.iter().enumerate().filter(|(_, &c)| c != EMPTY) {
+                let per_area = if code & LEAF == 0 { WIDE_NODE_COST } else { leaf_blocks(code).len() as f32 };
+                cost += lane_area(n, lane) * per_area;
+            }
+        }
+        cost
+    }
+
+    /// The SAH cost of the greedy collapse (each wide node opens its largest interior
+    /// child until it has eight), the one the plan replaced.
+    fn greedy_cost(bvh: &Bvh, index: usize) -> f32 {
+        let node = &bvh.nodes[index];
+        let area = |k: usize| bvh.nodes[k].aabb().half_area();
+        if node.is_leaf() {
+            return area(index) * node.count.div_ceil(4) as f32;
+        }
+        let first = node.left_first as usize;
+        let mut kids = vec![first, first + 1];
+        while kids.len() < 8 {
+            let open = kids.iter().enumerate().filter(|(_, &k)| !bvh.nodes[k].is_leaf()).max_by(|a, b| area(*a.1).total_cmp(&area(*b.1)));
+            let Some((i, &k)) = open else { break };
+            let c = bvh.nodes[k].left_first as usize;
+            kids[i] = c;
+            kids.push(c + 1);
+        }
+        area(index) * WIDE_NODE_COST + kids.iter().map(|&k| greedy_cost(bvh, k)).sum::<f32>()
+    }
+
+    #[test]
+    fn the_collapse_builds_the_planned_tree_and_beats_the_greedy_one() {
+        for (n, seed) in [(3, 1), (40, 2), (5_000, 3), (20_000, 4)] {
+            let mesh = random_mesh(n, seed);
+            let valid: Vec<u32> = (0..n as u32).filter(|i| i % 50 != 0).collect();
+            let bvh = Bvh::build_sah(&valid, |i| {
+                let [a, b, c] = mesh.triangle_vertices(i);
+                crate::Aabb::new(a.min(b).min(c), a.max(b).max(c))
+            });
+            let plan = Plan::new(&bvh);
+            let w = WideBvh::from_bvh(&bvh, &mesh);
+            let built = wide_sah_cost(&w, bvh.nodes[0].aabb().half_area());
+            assert!((built - plan.cost).abs() <= 1e-4 * plan.cost, "{n} triangles: built {built}, planned {}", plan.cost);
+            let greedy = greedy_cost(&bvh, 0);
+            assert!(plan.cost <= greedy * (1.0 + 1e-5), "{n} triangles: planned {} > greedy {greedy}", plan.cost);
+            if n >= 5_000 {
+                assert!(plan.cost < 0.99 * greedy, "{n} triangles: planned {} not below greedy {greedy}", plan.cost);
+            }
+        }
+    }
+
     #[test]
     fn collapsed_nodes_bound_their_children_in_decreasing_area_order() {
         let mut mesh = random_mesh(20_000, 9);
@@ -901,7 +1085,7 @@ mod tests {
                 let b = lane_box(node, lane);
                 let code = node.child[lane];
                 if code & LEAF == 0 {
-                    let kid = &w.nodes[code as usize];
+                    let kid = &w.nodes[code as usize / std::mem::size_of::<Node8>()];
                     for k in kid.child.iter().enumerate().filter(|(_, &c)| c != EMPTY).map(|(k, _)| k) {
                         let kb = lane_box(kid, k);
                         assert!(contains(&b, kb.min) && contains(&b, kb.max), "a child box outside its parent's lane");
