@@ -44,6 +44,9 @@ pub(crate) const STACK_SIZE: usize = 7 * crate::bvh::STACK_SIZE + 8;
 /// The interval `[near, far]` becomes `[near - |near|·WIDEN, far + |far|·WIDEN]`, wider
 /// whatever the signs (rays may start at a negative `t_min`).
 pub(crate) const WIDEN: f32 = 4.0 * f32::EPSILON;
+/// The SIMD box test's widening when `t_min >= 0`, in ULPs of each end (4 ε relative is
+/// 4 to 8 ULPs, so this is at least as wide).
+const WIDEN_ULPS: i32 = 8;
 
 /// Eight child boxes (structure of arrays) and their child codes.
 #[repr(C, align(32))]
@@ -888,10 +891,21 @@ unsafe fn box_test_avx2(node: &Node8, pre: &RayPre, t_min: f32, t_max: f32, dist
             far = _mm256_min_ps(far, tf);
         }
         if t_min >= 0.0 {
-            // PERF: `near >= t_min >= 0`, and a negative `far` fails the test anyway, so
-            // scaling widens the interval (the sign-safe form cost 5% of primary rays).
-            near = _mm256_mul_ps(near, _mm256_set1_ps(1.0 - WIDEN));
-            far = _mm256_mul_ps(far, _mm256_set1_ps(1.0 + WIDEN));
+            // Widened in ULPs, on the float bits: `near` (>= 0, or -0.0) moves down by
+            // WIDEN_ULPS, `far` up by as many when >= 0. Adding to the bits of a
+            // non-negative float moves it that many ULPs; a negative `far` fails anyway,
+            // except -0.0, accepted as the float compare would. -0.0's bits are
+            // `i32::MIN`, so a -0.0 `near` accepts: conservative. PERF: integer adds and
+            // compares instead of two multiplies and a float compare on the path from
+            // the node's loads to the next node: primary +3.7%, diffuse +1.8%, shadow +1.8%.
+            let (ni, fi) = (_mm256_castps_si256(near), _mm256_castps_si256(far));
+            let ulps = _mm256_set1_epi32(WIDEN_ULPS);
+            let too_far = _mm256_cmpgt_epi32(ni, _mm256_add_epi32(fi, _mm256_add_epi32(ulps, ulps)));
+            let neg_zero = _mm256_cmpeq_epi32(fi, _mm256_set1_epi32(i32::MIN));
+            let lowered = _mm256_sub_epi32(_mm256_max_epi32(ni, ulps), ulps);
+            _mm256_storeu_si256(dist.as_mut_ptr().cast(), lowered);
+            let reject = _mm256_movemask_ps(_mm256_castsi256_ps(too_far)) as u32;
+            return (!reject & 0xFF) | _mm256_movemask_ps(_mm256_castsi256_ps(neg_zero)) as u32;
         } else {
             let widen = _mm256_set1_ps(WIDEN);
             let sign = _mm256_set1_ps(-0.0);
@@ -1060,6 +1074,53 @@ mod tests {
                 assert!(plan.cost < 0.99 * greedy, "{n} triangles: planned {} not below greedy {greedy}", plan.cost);
             }
         }
+    }
+
+    /// Rays starting on a triangle (t = 0) that lies on a face of its leaf's box: the ULP
+    /// widening must keep the box when its far distance is -0.0 (origin x -0.0, going
+    /// down x out of the box) and its near one +0.0.
+    #[test]
+    fn rays_starting_on_an_axis_aligned_triangle_hit_it_at_zero_on_every_level() {
+        // A triangle in the plane x = 0 with one at x = 0.5 beside it (one leaf, its box
+        // from x = 0 to 0.5), and far ones so the tree has inner nodes.
+        let vertices = vec![
+            Vec3::new(0.0, -1.0, -1.0),
+            Vec3::new(0.0, 1.0, -1.0),
+            Vec3::new(0.0, 0.0, 1.0),
+            Vec3::new(0.5, 2.0, 2.0),
+            Vec3::new(0.5, 3.0, 2.0),
+            Vec3::new(0.5, 2.0, 3.0),
+        ];
+        let mut vertices = vertices;
+        let mut rng = rand_pcg::Pcg32::seed_from_u64(5);
+        for _ in 0..60 {
+            let c = Vec3::new(rng.random_range(5.0..20.0), rng.random_range(-5.0..5.0), rng.random_range(-5.0..5.0));
+            vertices.extend([c, c + Vec3::X, c + Vec3::Y]);
+        }
+        let triangles = (0..vertices.len() as u32 / 3).map(|i| [3 * i, 3 * i + 1, 3 * i + 2]).collect();
+        let mut mesh = TriangleMesh::new(vertices, Vec::new(), triangles);
+        mesh.build_accel(Accel::BvhSah);
+        let MeshAccel::Wide(w) = mesh.accel() else { panic!("bvh-sah builds a wide BVH") };
+        assert!(w.root & LEAF == 0, "the test needs box tests");
+        let mut checked = 0;
+        for ox in [0.0f32, -0.0] {
+            for dx in [1.0f32, -1.0, 1e-3, -1e-3] {
+                for t_min in [0.0f32, -0.0] {
+                    let ray = Ray::new(Vec3::new(ox, 0.0, 0.0), Vec3::new(dx, 0.25, 0.5));
+                    let want = mesh.intersect_brute_force(&ray, t_min, f32::INFINITY);
+                    assert!(want.is_some_and(|h| h.t == 0.0 && h.prim == 0), "brute force hits triangle 0 at t = 0");
+                    for level in SimdLevel::available() {
+                        let mut w = w.clone();
+                        w.set_level(level);
+                        let got = w.intersect(&ray, t_min, f32::INFINITY);
+                        assert_eq!(got.map(|h| (h.t, h.prim)), Some((0.0, 0)), "{level:?}, origin x {ox:?}, dx {dx:?}, t_min {t_min:?}");
+                        assert!(w.occluded(&ray, t_min, f32::INFINITY));
+                        checked += 1;
+                    }
+                }
+            }
+        }
+        assert!(checked >= 32);
     }
 
     #[test]
