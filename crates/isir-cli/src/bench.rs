@@ -45,6 +45,34 @@ pub struct BenchArgs {
     /// Keep the ray, mesh and hit files in this directory (default: a temporary one).
     #[arg(long)]
     pub keep: Option<PathBuf>,
+    /// Run the whole comparison this many times (isir, then Embree, per round) and print
+    /// medians, and the ratio's median with its range: the machine's noise in one table.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=99))]
+    pub rounds: u32,
+}
+
+/// One round of measurements: isir's build and traces, then Embree's on the same files.
+struct Round {
+    build_ms: f64,
+    /// Closest/occluded traces of the three sets, then the packets.
+    ours: Vec<TraceFigures>,
+    /// Embree's figures on the three sets, then its stream mode (empty without Embree).
+    theirs: Vec<HashMap<String, String>>,
+}
+
+/// The median of `v` (NaN when empty).
+fn median(mut v: Vec<f64>) -> f64 {
+    v.retain(|x| !x.is_nan());
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        (v[n / 2 - 1] + v[n / 2]) / 2.0
+    }
 }
 
 fn find_embree(explicit: &Option<PathBuf>) -> Option<PathBuf> {
@@ -143,16 +171,6 @@ fn bench_in(a: &BenchArgs, name: &str, desc: &SceneDescription, scene: &Scene, s
         sets.push((label, kind, set, path));
     }
 
-    // ---- isir: one timed build, then every set traced with that tree ----
-    let threads = rayon::current_num_threads();
-    let build = build_timed(&mut mesh, Accel::BvhSah, a.repeat, None)?;
-    let ours: Vec<TraceFigures> = sets
-        .iter()
-        .map(|(_, kind, set, _)| trace_timed(&mesh, set, if *kind == RayKind::Shadow { Mode::Occluded } else { Mode::Closest }, a.repeat))
-        .collect();
-    // Coherent primary rays in packets, beside Embree's stream mode.
-    let packets = trace_timed(&mesh, &sets[0].2, Mode::Packets, a.repeat);
-
     // ---- The mesh as a plain OBJ file, for Embree ----
     let obj_path = match &source {
         MeshSource::Builtin(model) => {
@@ -167,23 +185,46 @@ fn bench_in(a: &BenchArgs, name: &str, desc: &SceneDescription, scene: &Scene, s
         }
         MeshSource::File(path) => path.clone(),
     };
-
-    // ---- Embree ----
     let embree = if a.no_embree { None } else { find_embree(&a.embree) };
-    let mut theirs: Vec<HashMap<String, String>> = Vec::new();
-    let mut stream = None;
-    if let Some(bin) = &embree {
-        for (label, kind, _, path) in &sets {
-            let hits = dir.join(format!("{label}.embree.hits"));
-            theirs.push(run_embree(bin, [&obj_path, path, &hits], *kind == RayKind::Shadow, "single", a, threads)?);
+    let threads = rayon::current_num_threads();
+
+    let mut rounds: Vec<Round> = Vec::new();
+    let mut build = None;
+    for _ in 0..a.rounds {
+        // ---- isir: one timed build, then every set traced with that tree ----
+        let b = build_timed(&mut mesh, Accel::BvhSah, a.repeat, None)?;
+        let mut ours: Vec<TraceFigures> = sets
+            .iter()
+            .map(|(_, kind, set, _)| {
+                trace_timed(&mesh, set, if *kind == RayKind::Shadow { Mode::Occluded } else { Mode::Closest }, a.repeat)
+            })
+            .collect();
+        // Coherent primary rays in packets, beside Embree's stream mode.
+        ours.push(trace_timed(&mesh, &sets[0].2, Mode::Packets, a.repeat));
+        if let Some(last) = rounds.last_mut() {
+            // Hits are compared once, from the last round: drop the earlier ones' records.
+            last.ours.iter_mut().for_each(|f| f.hit_records = Vec::new());
         }
-        let hits = dir.join("primary.embree-stream.hits");
-        stream = Some(run_embree(bin, [&obj_path, &sets[0].3, &hits], false, "stream", a, threads)?);
+
+        // ---- Embree, on the same files ----
+        let mut theirs = Vec::new();
+        if let Some(bin) = &embree {
+            for (label, kind, _, path) in &sets {
+                let hits = dir.join(format!("{label}.embree.hits"));
+                theirs.push(run_embree(bin, [&obj_path, path, &hits], *kind == RayKind::Shadow, "single", a, threads)?);
+            }
+            let hits = dir.join("primary.embree-stream.hits");
+            theirs.push(run_embree(bin, [&obj_path, &sets[0].3, &hits], false, "stream", a, threads)?);
+        }
+        rounds.push(Round { build_ms: b.build_ms, ours, theirs });
+        build = Some(b);
     }
+    let build = build.expect("at least one round");
+    let last = rounds.last().expect("at least one round");
 
     // ---- Table ----
     println!(
-        "isir bench: {name}, {} triangles ({} degenerate), {}x{} rays, {threads} threads, isir simd {}{}",
+        "isir bench: {name}, {} triangles ({} degenerate), {}x{} rays, {threads} threads, isir simd {}{}{}",
         build.stats.triangles,
         build.stats.degenerate,
         a.width,
@@ -192,44 +233,57 @@ fn bench_in(a: &BenchArgs, name: &str, desc: &SceneDescription, scene: &Scene, s
         embree
             .as_ref()
             .map(|b| format!(", embree-bench {} (quality {})", b.display(), a.embree_quality))
-            .unwrap_or_else(|| ", embree-bench not found".into())
+            .unwrap_or_else(|| ", embree-bench not found".into()),
+        if a.rounds > 1 { format!(", medians of {} rounds", a.rounds) } else { String::new() }
     );
-    println!("{:<28} {:>12} {:>12} {:>12} {:>14}", "figure", "isir", "embree", "isir/embree", "hits agree");
-    // One row: isir's figure, Embree's (NaN when not run), their ratio, the hit agreement.
+    println!("{:<28} {:>12} {:>12} {:>20} {:>14}", "figure", "isir", "embree", "isir/embree", "hits agree");
+    // One row from per-round figures: isir's, Embree's (NaN when not run), the ratio of
+    // each round (inverted for times), and the hit agreement.
     let cell = |x: f64| if x.is_finite() { format!("{x:.2}") } else { "-".to_string() };
-    let row = |label: &str, ours: f64, theirs: f64, with_ratio: bool, agree: &str| {
-        let ratio = if with_ratio && theirs.is_finite() && theirs > 0.0 { format!("{:.2}", ours / theirs) } else { String::new() };
-        println!("{label:<28} {ours:>12.2} {:>12} {ratio:>12} {agree:>14}", cell(theirs));
+    let row = |label: &str, ours: &[f64], theirs: &[f64], ratio_of: Option<fn(f64, f64) -> f64>, agree: &str| {
+        let ratios: Vec<f64> = match ratio_of {
+            Some(f) => ours.iter().zip(theirs).map(|(&o, &t)| f(o, t)).filter(|r| r.is_finite()).collect(),
+            None => Vec::new(),
+        };
+        let ratio = match ratios.len() {
+            0 => String::new(),
+            1 => format!("{:.2}", ratios[0]),
+            _ => {
+                let (lo, hi) = ratios.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &r| (l.min(r), h.max(r)));
+                format!("{:.2} ({lo:.2}-{hi:.2})", median(ratios.clone()))
+            }
+        };
+        println!("{label:<28} {:>12} {:>12} {ratio:>20} {agree:>14}", cell(median(ours.to_vec())), cell(median(theirs.to_vec())));
     };
     let agreement = |file: &str, ours: &[HitRecord]| -> anyhow::Result<String> {
         let theirs = rays::read_hits(&dir.join(file))?;
         Ok(format!("{:.4}%", 100.0 * compare_hits(ours, &theirs, 1e-4).fraction()))
     };
-    let embree_build = theirs.iter().map(|m| num(m, "build_ms")).fold(f64::NAN, f64::min);
+    let speed = |o: f64, t: f64| o / t;
     let triangles = build.stats.triangles as f64;
-    row("build (Mtris/s)", build.build_mtris_per_s(), triangles / (embree_build * 1e-3) * 1e-6, true, "");
-    row("build (ms)", build.build_ms, embree_build, false, "");
+    let our_build: Vec<f64> = rounds.iter().map(|r| r.build_ms).collect();
+    let their_build: Vec<f64> = rounds.iter().map(|r| r.theirs.iter().map(|m| num(m, "build_ms")).fold(f64::NAN, f64::min)).collect();
+    let mtris = |ms: &[f64]| ms.iter().map(|&t| triangles / (t * 1e-3) * 1e-6).collect::<Vec<_>>();
+    row("build (Mtris/s)", &mtris(&our_build), &mtris(&their_build), Some(speed), "");
+    row("build (ms)", &our_build, &their_build, None, "");
+    let their_speed = |i: usize| rounds.iter().map(|r| r.theirs.get(i).map_or(f64::NAN, |m| num(m, "mrays_per_s"))).collect::<Vec<_>>();
+    let our_speed = |i: usize| rounds.iter().map(|r| r.ours[i].mrays_per_s()).collect::<Vec<_>>();
     for (i, (label, kind, _, _)) in sets.iter().enumerate() {
         let q = if *kind == RayKind::Shadow { "occluded" } else { "closest" };
-        let (e, agree) = match theirs.get(i) {
-            Some(m) => (num(m, "mrays_per_s"), agreement(&format!("{label}.embree.hits"), &ours[i].hit_records)?),
-            None => (f64::NAN, "-".to_string()),
-        };
-        row(&format!("{label} {q} (Mrays/s)"), ours[i].mrays_per_s(), e, true, &agree);
+        let agree = if embree.is_some() { agreement(&format!("{label}.embree.hits"), &last.ours[i].hit_records)? } else { "-".to_string() };
+        row(&format!("{label} {q} (Mrays/s)"), &our_speed(i), &their_speed(i), Some(speed), &agree);
     }
     // isir's packets of 16 against Embree's stream of 256 (its best mode on these rays).
-    let (e, agree) = match &stream {
-        Some(m) => (num(m, "mrays_per_s"), agreement("primary.embree-stream.hits", &packets.hit_records)?),
-        None => (f64::NAN, "-".to_string()),
-    };
-    row("primary packets/stream", packets.mrays_per_s(), e, true, &agree);
+    let p = sets.len();
+    let agree = if embree.is_some() { agreement("primary.embree-stream.hits", &last.ours[p].hit_records)? } else { "-".to_string() };
+    row("primary packets/stream", &our_speed(p), &their_speed(p), Some(speed), &agree);
     println!(
         "sah_cost: {:.3}  nodes: {}  bytes_per_triangle: {:.1}",
         build.stats.sah_cost, build.stats.nodes, build.stats.bytes_per_triangle
     );
     for (i, (label, _, set, _)) in sets.iter().enumerate() {
-        if let Some((n, t)) = ours[i].visits {
-            println!("{label}: {} rays, {} hits, {n:.2} node visits and {t:.2} triangle tests per ray", set.len(), ours[i].hits);
+        if let Some((n, t)) = last.ours[i].visits {
+            println!("{label}: {} rays, {} hits, {n:.2} node visits and {t:.2} triangle tests per ray", set.len(), last.ours[i].hits);
         }
     }
     Ok(())

@@ -126,3 +126,31 @@ fn rays_and_trace_round_trip_and_reject_bad_files() {
     let (code, _, err) = isir(&["trace", "uvsphere", rays.to_str().unwrap(), "--packets", "--occluded"]);
     one_line_error(code, &err, "--packets");
 }
+
+#[test]
+fn bench_rounds_print_medians_and_reject_zero() {
+    let (code, out, err) = isir(&[
+        "bench",
+        "tp4-sphere",
+        "--width",
+        "24",
+        "--height",
+        "16",
+        "--repeat",
+        "1",
+        "--rounds",
+        "3",
+        "--no-embree",
+        "--threads",
+        "1",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("medians of 3 rounds") && out.contains("embree-bench not found"), "{out}");
+    for row in ["build (Mtris/s)", "build (ms)", "primary closest", "diffuse closest", "shadow occluded", "primary packets/stream"] {
+        let line = out.lines().find(|l| l.starts_with(row)).unwrap_or_else(|| panic!("no '{row}' row in:\n{out}"));
+        let figure: f64 = line[row.len()..].split_whitespace().find_map(|w| w.parse().ok()).unwrap_or(f64::NAN);
+        assert!(figure.is_finite() && figure > 0.0, "'{row}' has no figure: {line}");
+    }
+    let (code, _, err) = isir(&["bench", "--rounds", "0", "--no-embree"]);
+    one_line_error(code, &err, "--rounds");
+}
