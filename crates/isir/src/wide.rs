@@ -194,6 +194,8 @@ pub struct WideBvh {
     /// Blocks hold `v0, v1, v2` for the watertight test instead of `v0, e1, e2`.
     pub(crate) watertight: bool,
     level: SimdLevel,
+    /// The tree's SAH cost as the collapse plan counts it.
+    sah_cost: f32,
 }
 
 impl WideBvh {
@@ -202,7 +204,8 @@ impl WideBvh {
     pub fn from_bvh(bvh: &Bvh, mesh: &TriangleMesh) -> WideBvh {
         use rayon::prelude::*;
         let watertight = mesh.triangle_test == TriangleTest::Watertight;
-        let mut w = WideBvh { nodes: Vec::new(), tris: Vec::new(), root: EMPTY, depth: 0, watertight, level: SimdLevel::best() };
+        let mut w =
+            WideBvh { nodes: Vec::new(), tris: Vec::new(), root: EMPTY, depth: 0, watertight, level: SimdLevel::best(), sah_cost: 0.0 };
         if bvh.nodes.is_empty() {
             return w;
         }
@@ -214,6 +217,7 @@ impl WideBvh {
         let mut c = Collapse { nodes: Vec::with_capacity(bvh.nodes.len() / 4 + 1), ..Collapse::default() };
         c.blocks.reserve(bvh.prim_indices.len() / 3 + 1);
         let plan = Plan::new(bvh);
+        w.sah_cost = plan.cost / bvh.nodes[0].aabb().half_area().max(f32::MIN_POSITIVE);
         w.root = c.convert(bvh, &plan, 0, 1);
         assert!(c.depth * 7 + 8 <= STACK_SIZE, "wide BVH too deep ({}) for the traversal stack", c.depth);
         w.depth = c.depth;
@@ -233,6 +237,14 @@ impl WideBvh {
         );
         // SAFETY: the caller guarantees a byte offset of a node in `nodes`.
         unsafe { &*self.nodes.as_ptr().cast::<u8>().add(code as usize).cast::<Node8>() }
+    }
+
+    /// The expected cost of a ray that enters the root box, by the surface area
+    /// heuristic: wide nodes tested plus blocks of four triangles tested (the weights the
+    /// collapse optimises; computed by the collapse, free).
+    #[must_use]
+    pub fn sah_cost(&self) -> f32 {
+        self.sah_cost
     }
 
     /// Number of wide nodes.
@@ -1066,8 +1078,10 @@ mod tests {
             });
             let plan = Plan::new(&bvh);
             let w = WideBvh::from_bvh(&bvh, &mesh);
-            let built = wide_sah_cost(&w, bvh.nodes[0].aabb().half_area());
+            let root_area = bvh.nodes[0].aabb().half_area();
+            let built = wide_sah_cost(&w, root_area);
             assert!((built - plan.cost).abs() <= 1e-4 * plan.cost, "{n} triangles: built {built}, planned {}", plan.cost);
+            assert!((w.sah_cost() * root_area - built).abs() <= 1e-4 * built, "{n} triangles: reported {}", w.sah_cost());
             let greedy = greedy_cost(&bvh, 0);
             assert!(plan.cost <= greedy * (1.0 + 1e-5), "{n} triangles: planned {} > greedy {greedy}", plan.cost);
             if n >= 5_000 {
