@@ -250,7 +250,7 @@ fn bench_in(a: &BenchArgs, name: &str, desc: &SceneDescription, scene: &Scene, s
             1 => format!("{:.2}", ratios[0]),
             _ => {
                 let (lo, hi) = ratios.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &r| (l.min(r), h.max(r)));
-                format!("{:.2} ({lo:.2}-{hi:.2})", median(ratios.clone()))
+                format!("{:.2} ({lo:.2}-{hi:.2})", median(ratios))
             }
         };
         println!("{label:<28} {:>12} {:>12} {ratio:>20} {agree:>14}", cell(median(ours.to_vec())), cell(median(theirs.to_vec())));
