@@ -438,8 +438,8 @@ impl WideBvh {
                     }
                     if SIMD {
                         // More hits: each lane's rank (how many hit lanes are nearer) is
-                        // its place, far to near from `sp`; the nearest lands one past the
-                        // pushed entries and is read back. No data-dependent branch.
+                        // its place, far to near from `sp`, without a data-dependent
+                        // branch; the nearest (rank 0) is continued with.
                         let n = mask.count_ones() as usize;
                         debug_assert!(sp + n <= STACK_SIZE);
                         // SAFETY: with `SIMD` the caller guarantees AVX2.
@@ -450,13 +450,18 @@ impl WideBvh {
                             m &= m - 1;
                             // SAFETY: as above.
                             let rank = unsafe { nearer_count(keys, lane, mask) };
-                            // SAFETY: sp + n <= STACK_SIZE: at most eight entries are
-                            // written per level and `from_bvh` checks the depth.
-                            unsafe { stack.get_unchecked_mut(sp + n - 1 - rank).write((node.child[lane], dist[lane])) };
+                            if rank == 0 {
+                                // PERF: a branch, so the CPU goes on into the child it
+                                // predicts (as for two hits); reading it back from the
+                                // stack waited for every rank: primary +6.5%, diffuse +2%.
+                                cur = node.child[lane];
+                            } else {
+                                // SAFETY: sp + n <= STACK_SIZE: at most eight entries are
+                                // written per level and `from_bvh` checks the depth.
+                                unsafe { stack.get_unchecked_mut(sp + n - 1 - rank).write((node.child[lane], dist[lane])) };
+                            }
                         }
                         sp += n - 1;
-                        // SAFETY: written just above (rank 0).
-                        cur = unsafe { stack.get_unchecked(sp).assume_init() }.0;
                         continue;
                     }
                     // More hits: push them far to near, continue with the nearest.
