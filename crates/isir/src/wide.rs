@@ -396,6 +396,11 @@ impl WideBvh {
                     box_test_scalar(node, &pre, t_min, t_best, &mut dist)
                 };
                 if mask != 0 {
+                    if mask == 1 {
+                        // PERF: the largest box alone, by a branch (see below).
+                        cur = node.child[0];
+                        continue;
+                    }
                     if mask & (mask - 1) == 0 {
                         cur = node.child[mask.trailing_zeros() as usize];
                         continue;
@@ -411,6 +416,10 @@ impl WideBvh {
                             // SAFETY: as for the ordered pushes below.
                             unsafe { stack.get_unchecked_mut(sp).write((node.child[lane], dist[lane])) };
                             sp += 1;
+                        }
+                        if mask & 1 != 0 {
+                            cur = node.child[0];
+                            continue;
                         }
                         cur = node.child[mask.trailing_zeros() as usize];
                         continue;
