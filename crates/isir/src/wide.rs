@@ -432,6 +432,14 @@ impl WideBvh {
                         let l1 = rest.trailing_zeros() as usize;
                         // PERF: a branch, not a select: the CPU goes on into the child it
                         // predicts without waiting for the distances.
+                        if l0 == 0 && dist[l1] > dist[0] {
+                            // The largest box nearer: its child at a constant offset.
+                            // SAFETY: as for the pushes below.
+                            unsafe { stack.get_unchecked_mut(sp).write((node.child[l1], dist[l1])) };
+                            sp += 1;
+                            cur = node.child[0];
+                            continue;
+                        }
                         if dist[l1] <= dist[l0] {
                             // SAFETY: as for the pushes below.
                             unsafe { stack.get_unchecked_mut(sp).write((node.child[l0], dist[l0])) };
