@@ -462,6 +462,12 @@ impl WideBvh {
                         // SAFETY: with `SIMD` the caller guarantees AVX2.
                         let keys = unsafe { sort_keys(&dist) };
                         let mut m = mask;
+                        // SAFETY: as above.
+                        if mask & 1 != 0 && unsafe { nearer_count(keys, 0, mask) } == 0 {
+                            // The largest box nearest: its child at a constant offset.
+                            cur = node.child[0];
+                            m &= m - 1;
+                        }
                         while m != 0 {
                             let lane = m.trailing_zeros() as usize;
                             m &= m - 1;
