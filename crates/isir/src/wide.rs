@@ -396,8 +396,14 @@ impl WideBvh {
                     box_test_scalar(node, &pre, t_min, t_best, &mut dist)
                 };
                 if mask != 0 {
+                    // PERF: which child comes next is decided by branches wherever that
+                    // lets the CPU guess, so that it loads the next node on the predicted
+                    // path instead of waiting for the box test: the nearer of two, the
+                    // nearest of more, and lane 0 (the largest box, the most often hit)
+                    // whose child code sits at a constant offset. Each measured A/B:
+                    // lane 0 alone +10% shadow, +9% primary; lane 0 first in any hit
+                    // +13% shadow; see ARCHITECTURE.md.
                     if mask == 1 {
-                        // PERF: the largest box alone, by a branch (see below).
                         cur = node.child[0];
                         continue;
                     }
