@@ -446,6 +446,14 @@ impl WideBvh {
                             cur = node.child[0];
                             continue;
                         }
+                        if mask == 3 && dist[1] <= dist[0] {
+                            // The two largest boxes, the second nearer: constant offsets.
+                            // SAFETY: as for the pushes below.
+                            unsafe { stack.get_unchecked_mut(sp).write((node.child[0], dist[0])) };
+                            sp += 1;
+                            cur = node.child[1];
+                            continue;
+                        }
                         if dist[l1] <= dist[l0] {
                             // SAFETY: as for the pushes below.
                             unsafe { stack.get_unchecked_mut(sp).write((node.child[l0], dist[l0])) };
