@@ -1,7 +1,7 @@
 //! Integrators: `Li(scene, ray, tMin, tMax)`, the colour seen along a ray.
 
 use crate::color::Color;
-use crate::ray::{shadow_ray, Ray};
+use crate::ray::Ray;
 use crate::sampling::Sampler;
 use crate::scene::{Hit, Scene};
 
@@ -72,8 +72,8 @@ fn direct_lighting(scene: &Scene, ray: &Ray, hit: &Hit, light_samples: u32, samp
             if cos == 0.0 || ls.radiance == Color::ZERO {
                 continue;
             }
-            // ---- Shadow ray, offset off the surface on the light's side ----
-            let Some((shadow, t_max)) = shadow_ray(hit.point, hit.geometric_normal, ls.direction, ls.distance) else { continue };
+            // ---- Shadow ray, from outside the hit point's error bound on the light's side ----
+            let Some((shadow, t_max)) = hit.spawn_ray_to(ls.point) else { continue };
             counters.shadow += 1;
             if !scene.occluded(&shadow, 0.0, t_max) {
                 sum += material.shade(ray, hit, &ls) * ls.radiance * cos;

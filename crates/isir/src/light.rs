@@ -10,6 +10,8 @@ pub struct LightSample {
     pub direction: Vec3,
     /// Distance from `x` to it.
     pub distance: f32,
+    /// The sampled point of the light (where shadow rays aim).
+    pub point: Vec3,
     /// Incoming radiance at `x` divided by the sample's pdf.
     pub radiance: Color,
     /// The pdf of the sample (solid angle for area lights; 1 for point lights).
@@ -59,7 +61,7 @@ impl Light {
             Light::Point { position, color, power } => {
                 let to = position - x;
                 let d = to.length();
-                LightSample { direction: to / d, distance: d, radiance: color * power / (d * d), pdf: 1.0 }
+                LightSample { direction: to / d, distance: d, point: position, radiance: color * power / (d * d), pdf: 1.0 }
             }
             Light::Quad { corner, u, v, color, power } => {
                 let y = corner + xi.x * u + xi.y * v;
@@ -74,10 +76,10 @@ impl Light {
                 let cos = n.dot(wi);
                 if cos.is_nan() || cos <= 0.0 {
                     // The back of the light: nothing.
-                    return LightSample { direction: wi, distance: d, radiance: Color::ZERO, pdf: 0.0 };
+                    return LightSample { direction: wi, distance: d, point: y, radiance: Color::ZERO, pdf: 0.0 };
                 }
                 let pdf = d * d / (area * cos);
-                LightSample { direction: wi, distance: d, radiance: color * power / pdf, pdf }
+                LightSample { direction: wi, distance: d, point: y, radiance: color * power / pdf, pdf }
             }
         }
     }

@@ -35,39 +35,74 @@ impl Ray {
     }
 }
 
-/// Offset a ray origin off a surface so that rays leaving it do not hit it again
-/// (Wächter, Binder: "A fast and robust method for avoiding self-intersection", RT Gems 2019).
-///
-/// `p` is the hit point, `n` the geometric normal on the side the new ray leaves towards.
-/// The offset is a few ULPs of `p` scaled by the normal, plus a small absolute offset near
-/// the origin where ULPs are tiny, so it works at the bunny's scale and the conference
-/// room's alike.
+/// `γ(n) = n·u / (1 - n·u)` with `u` half an ULP of 1: a bound on the relative rounding
+/// error of `n` chained float operations (Higham; pbrt-v4 §6.8.1 `gamma`).
+#[inline]
 #[must_use]
-pub fn offset_ray_origin(p: Vec3, n: Vec3) -> Vec3 {
-    const ORIGIN: f32 = 1.0 / 32.0;
-    const FLOAT_SCALE: f32 = 1.0 / 65536.0;
-    const INT_SCALE: f32 = 256.0;
-    let of_i = (n * INT_SCALE).as_ivec3();
-    let step = |p: f32, o: i32| -> f32 {
-        let bits = p.to_bits() as i32;
-        let moved = if p < 0.0 { bits.wrapping_sub(o) } else { bits.wrapping_add(o) };
-        f32::from_bits(moved as u32)
-    };
-    let p_i = Vec3::new(step(p.x, of_i.x), step(p.y, of_i.y), step(p.z, of_i.z));
-    let pick = |p: f32, pi: f32, n: f32| if p.abs() < ORIGIN { p + FLOAT_SCALE * n } else { pi };
-    Vec3::new(pick(p.x, p_i.x, n.x), pick(p.y, p_i.y, n.y), pick(p.z, p_i.z, n.z))
+pub const fn gamma(n: u32) -> f32 {
+    let nu = n as f32 * (f32::EPSILON * 0.5);
+    nu / (1.0 - nu)
 }
 
-/// The shadow ray from surface point `p` (geometric normal `ng`, either side) to the point
-/// `distance` away along unit direction `wi`: its origin offset off the surface on the
-/// light's side, aimed at that point, its `t_max` just short of it (directions unit, so
-/// `t` is a distance). `None` when the offset origin is the target itself, or the
-/// distance is not finite.
+/// The next float above `x` (`+∞` stays; `-0.0` goes to the smallest positive float).
+#[inline]
 #[must_use]
-pub fn shadow_ray(p: Vec3, ng: Vec3, wi: Vec3, distance: f32) -> Option<(Ray, f32)> {
-    let side = if ng.dot(wi) >= 0.0 { ng } else { -ng };
-    let origin = offset_ray_origin(p, side);
-    let to = p + wi * distance - origin;
+pub fn next_float_up(x: f32) -> f32 {
+    if x.is_infinite() && x > 0.0 || x.is_nan() {
+        return x;
+    }
+    let x = if x == -0.0 { 0.0 } else { x };
+    let bits = x.to_bits();
+    f32::from_bits(if x >= 0.0 { bits + 1 } else { bits - 1 })
+}
+
+/// The next float below `x`.
+#[inline]
+#[must_use]
+pub fn next_float_down(x: f32) -> f32 {
+    -next_float_up(-x)
+}
+
+/// Offset a surface point so that rays leaving it along `w` do not hit its surface again
+/// (pbrt-v4, §6.8.6 "Robust spawned ray origins", `OffsetRayOrigin`).
+///
+/// `p` is the computed point, `p_error` a conservative bound on its error on each axis
+/// (see [`crate::scene::Hit::point_error`]): the true surface lies within that box of `p`.
+/// The origin moves along the geometric normal `n` (either orientation) to the side of `w`
+/// by `dot(|n|, p_error)`, which takes it out of the box, and each moved coordinate is then
+/// rounded one float further away, so that the rounding of `p + offset` cannot undo it.
+#[must_use]
+pub fn offset_ray_origin(p: Vec3, p_error: Vec3, n: Vec3, w: Vec3) -> Vec3 {
+    let d = n.abs().dot(p_error);
+    let offset = if w.dot(n) < 0.0 { -d * n } else { d * n };
+    let po = p + offset;
+    let away = |po: f32, o: f32| {
+        if o > 0.0 {
+            next_float_up(po)
+        } else if o < 0.0 {
+            next_float_down(po)
+        } else {
+            po
+        }
+    };
+    Vec3::new(away(po.x, offset.x), away(po.y, offset.y), away(po.z, offset.z))
+}
+
+/// The ray leaving surface point `p` (error bound `p_error`, geometric normal `ng`) in
+/// direction `w` (pbrt-v4 `SpawnRay`): from the offset origin, `t` from 0.
+#[must_use]
+pub fn spawn_ray(p: Vec3, p_error: Vec3, ng: Vec3, w: Vec3) -> Ray {
+    Ray::new(offset_ray_origin(p, p_error, ng, w), w)
+}
+
+/// The shadow ray from surface point `p` (error bound `p_error`, geometric normal `ng`) to
+/// `target` (pbrt-v4 `SpawnRayTo`): from the origin offset towards the target, with a unit
+/// direction and the `t_max` that stops it just short of the target (`1 - 1e-4` of the way,
+/// pbrt's `ShadowEpsilon`). `None` when the target is the origin itself or is not finite.
+#[must_use]
+pub fn spawn_ray_to(p: Vec3, p_error: Vec3, ng: Vec3, target: Vec3) -> Option<(Ray, f32)> {
+    let origin = offset_ray_origin(p, p_error, ng, target - p);
+    let to = target - origin;
     let dist = to.length();
     (dist > 0.0 && dist.is_finite()).then(|| (Ray::new(origin, to / dist), dist * (1.0 - 1e-4)))
 }
@@ -77,27 +112,46 @@ mod tests {
     use super::*;
 
     #[test]
-    fn offset_moves_to_the_normal_side() {
-        for p in [Vec3::ZERO, Vec3::new(1000.0, -250.0, 3.0), Vec3::new(-1e-3, 5.0, -7.0)] {
+    fn offset_leaves_the_error_box_on_the_side_of_w() {
+        for p in [Vec3::ZERO, Vec3::new(1000.0, -250.0, 3.0), Vec3::new(-1e-3, 5.0, -7.0), Vec3::new(3e7, -1e-30, 2.5)] {
             for n in [Vec3::X, -Vec3::Y, Vec3::new(0.6, 0.0, -0.8)] {
-                let q = offset_ray_origin(p, n);
-                assert!((q - p).dot(n) > 0.0, "p={p} n={n} q={q}");
-                assert!((q - p).length() < 1e-2 * (1.0 + p.length()));
+                let err = p.abs() * gamma(7) + Vec3::splat(1e-30);
+                for w in [n, -n, n + Vec3::new(0.1, 0.2, 0.3)] {
+                    let q = offset_ray_origin(p, err, n, w);
+                    let side = if w.dot(n) < 0.0 { -n } else { n };
+                    // Past the error box along the normal, whatever the rounding.
+                    let moved = (q - p).dot(side);
+                    assert!(moved >= n.abs().dot(err) * 0.999, "p={p} n={n} q={q} moved={moved}");
+                    assert!((q - p).length() < 1e-5 * (1.0 + p.length()));
+                }
             }
         }
+    }
+
+    #[test]
+    fn next_floats() {
+        assert_eq!(next_float_up(1.0), 1.0 + f32::EPSILON);
+        assert_eq!(next_float_down(1.0), 1.0 - f32::EPSILON / 2.0);
+        assert!(next_float_up(-0.0) > 0.0 && next_float_up(0.0) > 0.0);
+        assert!(next_float_down(0.0) < 0.0);
+        assert_eq!(next_float_up(-1.0), -1.0 + f32::EPSILON / 2.0);
+        assert_eq!(next_float_up(f32::INFINITY), f32::INFINITY);
+        assert_eq!(next_float_up(f32::MAX), f32::INFINITY);
+        assert!(gamma(3) > 3.0 * f32::EPSILON / 2.0 && gamma(3) < 3.1 * f32::EPSILON / 2.0);
     }
 
     #[test]
     fn shadow_rays_leave_on_the_light_side_and_stop_short() {
         let p = Vec3::new(3.0, -3.0, 1.0);
         let light = Vec3::new(0.0, 3.0, -5.0);
-        let wi = (light - p).normalize();
+        let err = p.abs() * gamma(7);
         for ng in [Vec3::Y, -Vec3::Y] {
-            let (r, t_max) = shadow_ray(p, ng, wi, (light - p).length()).unwrap();
+            let (r, t_max) = spawn_ray_to(p, err, ng, light).unwrap();
             assert!(r.origin.y > p.y, "offset towards the light's side");
             assert!((r.direction.length() - 1.0).abs() < 1e-6);
             assert!(t_max < (light - r.origin).length() && r.at(t_max).distance(light) < 1e-2);
         }
+        assert!(spawn_ray_to(p, err, Vec3::Y, Vec3::new(f32::INFINITY, 0.0, 0.0)).is_none());
     }
 
     #[test]

@@ -3,7 +3,7 @@
 
 use crate::camera::Camera;
 use crate::error::{Error, Result};
-use crate::ray::{offset_ray_origin, shadow_ray, Ray};
+use crate::ray::Ray;
 use crate::sampling::{pixel_rng, square_to_cosine_hemisphere};
 use crate::scene::Scene;
 use glam::Vec3;
@@ -229,12 +229,13 @@ pub fn generate(scene: &Scene, camera: &Camera, width: u32, height: u32, kind: R
                 match kind {
                     RayKind::Diffuse => {
                         let d = square_to_cosine_hemisphere(n, rng.next_2d());
-                        out.push(RayRecord { origin: offset_ray_origin(hit.point, n), t_min: 0.0, direction: d, t_max: f32::INFINITY });
+                        let r = hit.spawn_ray(d);
+                        out.push(RayRecord { origin: r.origin, t_min: 0.0, direction: d, t_max: f32::INFINITY });
                     }
                     RayKind::Shadow => {
                         let ls = scene.lights[0].sample(hit.point, rng.next_2d());
                         // The renderer's own shadow ray.
-                        if let Some((r, t_max)) = shadow_ray(hit.point, n, ls.direction, ls.distance) {
+                        if let Some((r, t_max)) = hit.spawn_ray_to(ls.point) {
                             out.push(RayRecord { origin: r.origin, t_min: 0.0, direction: r.direction, t_max });
                         }
                     }

@@ -14,7 +14,7 @@ use crate::integrator::Integrator;
 use crate::light::Light;
 use crate::material::{Material, MaterialId};
 use crate::obj;
-use crate::ray::Ray;
+use crate::ray::{spawn_ray, spawn_ray_to, Ray};
 use crate::triangle::TriangleTest;
 use glam::Vec3;
 use std::path::PathBuf;
@@ -62,8 +62,13 @@ impl std::str::FromStr for Accel {
 pub struct Hit {
     /// Ray parameter.
     pub t: f32,
-    /// Hit point.
+    /// Hit point, computed on the surface (from the barycentrics on a triangle, reprojected
+    /// on spheres and planes), not as `o + t·d`, whose error grows with `t`.
     pub point: Vec3,
+    /// A conservative bound on the error of `point` on each axis: the true surface point
+    /// lies within `point ± point_error`. Rays leaving the surface start outside that box
+    /// ([`Hit::spawn_ray`], [`Hit::spawn_ray_to`]; pbrt-v4 §6.8).
+    pub point_error: Vec3,
     /// Shading normal, facing the incoming ray.
     pub normal: Vec3,
     /// Geometric normal, facing the incoming ray.
@@ -131,16 +136,21 @@ impl Scene {
         // Phase 2: the surface interaction of that one hit.
         let (i, t, prim, u, v) = best?;
         let o = &self.objects[i];
-        let point = ray.at(t);
-        let (normal, geometric, slot) = match &o.geometry {
-            Geometry::Sphere(s) => (s.normal(point), s.normal(point), 0),
-            Geometry::Plane(p) => (p.normal, p.normal, 0),
-            Geometry::Mesh(m) => (m.shading_normal(prim, u, v), m.face_normal(prim), m.material_slots[prim as usize] as usize),
+        let ((point, point_error), normal, geometric, slot) = match &o.geometry {
+            Geometry::Sphere(s) => {
+                let (p, e) = s.surface_point(ray, t);
+                ((p, e), s.normal(p), s.normal(p), 0)
+            }
+            Geometry::Plane(p) => (p.surface_point(ray, t), p.normal, p.normal, 0),
+            Geometry::Mesh(m) => {
+                (m.surface_point(prim, u, v), m.shading_normal(prim, u, v), m.face_normal(prim), m.material_slots[prim as usize] as usize)
+            }
         };
         let face = |n: Vec3| if ray.direction.dot(n) > 0.0 { -n } else { n };
         Some(Hit {
             t,
             point,
+            point_error,
             normal: face(normal),
             geometric_normal: face(geometric),
             object: i as u32,
@@ -174,6 +184,24 @@ impl Scene {
             Geometry::Mesh(m) => Some((o.name.as_str(), m.as_ref())),
             _ => None,
         })
+    }
+}
+
+impl Hit {
+    /// The ray leaving the hit in direction `w`, its origin offset off the surface by the
+    /// point's error bound (pbrt-v4 `SpawnRay`), `t` from 0: it cannot hit this surface at
+    /// the hit point again.
+    #[must_use]
+    pub fn spawn_ray(&self, w: Vec3) -> Ray {
+        spawn_ray(self.point, self.point_error, self.geometric_normal, w)
+    }
+
+    /// The shadow ray from the hit to `target` (pbrt-v4 `SpawnRayTo`): unit direction, and
+    /// the `t_max` that stops it just short of the target. `None` when the target is not
+    /// finite or is the origin itself.
+    #[must_use]
+    pub fn spawn_ray_to(&self, target: Vec3) -> Option<(Ray, f32)> {
+        spawn_ray_to(self.point, self.point_error, self.geometric_normal, target)
     }
 }
 

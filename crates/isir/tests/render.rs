@@ -134,3 +134,60 @@ fn no_shadow_acne_on_lit_surfaces() {
     // The bunny shadows itself (ears on the back) a little, acne would be a large fraction.
     assert!(dark * 20 < facing, "{dark} of {facing} lit-facing pixels are black");
 }
+
+#[test]
+fn conference_floor_has_no_acne() {
+    // TP4 figure 2. Shadow acne on the lit floor shows as pixels darker than their
+    // neighbours: with the pixel centre as the only sample, a hit point computed below the
+    // floor sends its shadow rays into the floor. Find the lit floor pixels darker than
+    // half the median of their 3×3 neighbourhood, then trace shadow rays from each: none
+    // may be stopped by the floor itself. (Before the fix, 12.9% of all floor shadow rays
+    // were, and 1,866 of about 12,400 lit floor pixels were dark at this size; what stays
+    // dark now is the shadow of thin things standing on the floor.)
+    let desc = scenes::builtin("tp4-conference").unwrap();
+    let scene = desc.build(Accel::BvhSah).unwrap();
+    let (w, h) = (240, 160);
+    let r = Renderer::new(w, h).spp(1);
+    let cam = desc.camera.build(r.aspect());
+    let (img, _) = r.render(&scene, &cam, &Integrator::DirectLighting { light_samples: 32 });
+    let is_floor = |hit: &isir::Hit| hit.geometric_normal.y > 0.99 && hit.point.y < 2.0;
+    let hits: Vec<Option<isir::Hit>> = (0..h)
+        .flat_map(|y| (0..w).map(move |x| (x, y)))
+        .map(|(x, y)| {
+            let ray = cam.generate_ray((x as f32 + 0.5) / w as f32, (y as f32 + 0.5) / h as f32);
+            scene.intersect(&ray, 0.0, f32::INFINITY).filter(is_floor)
+        })
+        .collect();
+    let lum = |x: u32, y: u32| img.get(x, y).dot(Vec3::ONE);
+    let (mut lit, mut dark, mut by_floor) = (0, 0, 0);
+    let mut rng = isir::sampling::Sampler::from_seed(5);
+    for y in 1..h - 1 {
+        for x in 1..w - 1 {
+            let around: Vec<(u32, u32)> = (0..9).map(|k| (x + k % 3 - 1, y + k / 3 - 1)).collect();
+            if !around.iter().all(|&(x, y)| hits[(y * w + x) as usize].is_some()) {
+                continue;
+            }
+            let mut l: Vec<f32> = around.iter().map(|&(x, y)| lum(x, y)).collect();
+            l.sort_by(f32::total_cmp);
+            if l[4] < 0.05 {
+                continue; // in shadow
+            }
+            lit += 1;
+            if lum(x, y) >= 0.5 * l[4] {
+                continue;
+            }
+            dark += 1;
+            let hit = hits[(y * w + x) as usize].unwrap();
+            for _ in 0..64 {
+                let ls = scene.lights[0].sample(hit.point, rng.next_2d());
+                let (shadow, t_max) = hit.spawn_ray_to(ls.point).unwrap();
+                if scene.intersect(&shadow, 0.0, t_max).is_some_and(|b| is_floor(&b) && (b.point.y - hit.point.y).abs() < 1e-2) {
+                    by_floor += 1;
+                }
+            }
+        }
+    }
+    assert!(lit > 10_000, "only {lit} lit floor pixels");
+    assert!(dark < lit / 10, "{dark} of {lit} lit floor pixels are darker than half their neighbours");
+    assert_eq!(by_floor, 0, "shadow rays of the {dark} dark floor pixels stopped by the floor itself");
+}

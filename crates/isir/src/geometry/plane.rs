@@ -1,6 +1,6 @@
 //! Infinite plane (a point and a normal).
 
-use crate::ray::Ray;
+use crate::ray::{gamma, Ray};
 use glam::Vec3;
 
 /// An infinite plane through `point` with unit `normal`.
@@ -28,6 +28,17 @@ impl Plane {
         }
         let t = (self.point - ray.origin).dot(self.normal) / denom;
         (t >= t_min && t < t_max).then_some(t)
+    }
+
+    /// The point where the ray meets the plane at `t`, and a bound on its error per axis:
+    /// `o + t·d` projected back onto the plane along its normal, within the rounding of the
+    /// projection (a few ULPs of the magnitudes involved, bounded by `γ(8)`).
+    #[must_use]
+    pub fn surface_point(&self, ray: &Ray, t: f32) -> (Vec3, Vec3) {
+        let q = ray.at(t);
+        let rel = q - self.point;
+        let p = q - self.normal * rel.dot(self.normal);
+        (p, gamma(8) * (p.abs() + self.point.abs() + Vec3::splat(rel.abs().max_element())))
     }
 }
 

@@ -1,6 +1,6 @@
 //! Sphere (centre, radius).
 
-use crate::ray::Ray;
+use crate::ray::{gamma, Ray};
 use glam::Vec3;
 
 /// A sphere.
@@ -32,6 +32,21 @@ impl Sphere {
         }
         let sq = disc.sqrt();
         [(-half_b - sq) / a, (-half_b + sq) / a].into_iter().find(|&t| t >= t_min && t < t_max)
+    }
+
+    /// The point where the ray meets the sphere at `t`, and a bound on its error per axis:
+    /// `o + t·d` pulled back onto the sphere along its radius (pbrt-v4 §6.8.5: the
+    /// reprojected point is within `γ(5)` of its magnitude about the centre), plus the
+    /// rounding of adding the centre back.
+    #[must_use]
+    pub fn surface_point(&self, ray: &Ray, t: f32) -> (Vec3, Vec3) {
+        let mut local = ray.at(t) - self.center;
+        let len = local.length();
+        if len > 0.0 {
+            local *= self.radius / len;
+        }
+        let p = self.center + local;
+        (p, gamma(5) * local.abs() + gamma(1) * p.abs())
     }
 
     /// Outward unit normal at a point of the sphere.

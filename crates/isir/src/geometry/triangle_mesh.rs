@@ -4,7 +4,7 @@
 
 use crate::aabb::Aabb;
 use crate::bvh::{Bvh, BvhQuality};
-use crate::ray::Ray;
+use crate::ray::{gamma, Ray};
 use crate::scene::Accel;
 use crate::triangle::{moller_trumbore, TriangleTest, WatertightRay};
 use crate::wide::WideBvh;
@@ -325,6 +325,37 @@ impl TriangleMesh {
     pub fn face_normal(&self, prim: u32) -> Vec3 {
         let [a, b, c] = self.triangle_vertices(prim);
         (b - a).cross(c - a).normalize_or_zero()
+    }
+
+    /// The point of triangle `prim` at barycentrics `(u, v)`, computed from them (not as
+    /// `o + t·d`, whose error grows with the distance travelled), and a conservative bound
+    /// on its error per axis.
+    ///
+    /// Two terms (pbrt-v4 §6.8.4 and §6.8.6): the rounding of `b0·p0 + b1·p1 + b2·p2`,
+    /// `γ(7)·Σ|bi·pi|`; and, along the normal, the error of Möller–Trumbore's `t` for a ray
+    /// starting on this triangle. That `t` is a triple product `e2·(s × e1)` divided by the
+    /// determinant; its rounding is up to `γ(8)·|s|·|e1|·|e2|` while its true value is the
+    /// height above the plane times `|e1 × e2|`. With `|s|` up to twice the longest edge
+    /// (for neighbours sharing the plane too), a ray starting closer to the plane than
+    /// `γ(8)·2·max|e|·|e1|·|e2| / |e1 × e2|` may find its own triangle in front of it: long
+    /// thin triangles (polygon fans) need far more than the point's own rounding.
+    #[must_use]
+    pub fn surface_point(&self, prim: u32, u: f32, v: f32) -> (Vec3, Vec3) {
+        let [p0, p1, p2] = self.triangle_vertices(prim);
+        let b0 = 1.0 - u - v;
+        let p = b0 * p0 + u * p1 + v * p2;
+        let point_error = gamma(7) * ((b0 * p0).abs() + (u * p1).abs() + (v * p2).abs());
+        // In f64: |e|³ overflows f32 for triangles beyond ~1e12.
+        let (e1, e2) = ((p1 - p0).as_dvec3(), (p2 - p0).as_dvec3());
+        let c = e1.cross(e2);
+        let area2 = c.length();
+        if area2 == 0.0 || !area2.is_finite() {
+            return (p, point_error);
+        }
+        let (l1, l2) = (e1.length(), e2.length());
+        let height = f64::from(gamma(8)) * 2.0 * l1.max(l2) * (l1 / area2) * l2;
+        let along_normal = ((c / area2).abs() * height).as_vec3();
+        (p, point_error + along_normal)
     }
 
     /// The shading normal at barycentrics `(u, v)` of triangle `prim` (not yet facing the ray).
