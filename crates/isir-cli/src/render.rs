@@ -71,14 +71,11 @@ fn file_scene(path: &str) -> SceneDescription {
 }
 
 /// Point the camera at the built scene's meshes, from the front and a little above, with a
-/// point light at the camera.
+/// point light at the camera ([`CameraDesc::framing`]).
 fn frame(path: &str, desc: &mut SceneDescription, scene: &mut Scene) -> anyhow::Result<()> {
     let b = scene.meshes().fold(isir::Aabb::EMPTY, |b, (_, m)| b.union(&m.aabb()));
-    anyhow::ensure!(!b.is_empty(), "{path}: the mesh has no triangle to look at");
-    let (c, r) = (b.centroid(), b.diagonal().length().max(1e-6));
-    let eye = c + isir::Vec3::new(0.0, 0.25, 1.0).normalize() * r * 1.1;
-    desc.camera = CameraDesc::new(eye, c);
-    let light = isir::Light::Point { position: eye, color: isir::color::WHITE, power: 1.2 * r * r };
+    let (camera, light) = CameraDesc::framing(&b).with_context(|| path.to_string())?;
+    desc.camera = camera;
     desc.lights = vec![light.clone()];
     scene.lights = vec![light];
     Ok(())

@@ -12,7 +12,10 @@ use glam::Vec3;
 #[derive(Clone, Debug)]
 pub struct Camera {
     position: Vec3,
-    top_left: Vec3,
+    /// The top-left corner of the viewport relative to the position: directions are formed
+    /// without adding and subtracting the position, which would round them to its ULPs (a
+    /// camera a few 1e7 units from the origin gave NaN rays).
+    to_top_left: Vec3,
     viewport_u: Vec3,
     viewport_v: Vec3,
 }
@@ -23,13 +26,15 @@ impl Camera {
     #[must_use]
     pub fn new(position: Vec3, look_at: Vec3, up: Vec3, fovy_degrees: f32, aspect: f32) -> Self {
         let focal = 1.0;
-        let w = (position - look_at).normalize();
+        // Scaled before normalizing: the squared length overflows beyond ~1e19.
+        let to_eye = position - look_at;
+        let w = (to_eye / to_eye.abs().max_element()).normalize();
         let u = up.cross(w).normalize();
         let v = w.cross(u);
         let height = 2.0 * (fovy_degrees.to_radians() * 0.5).tan() * focal;
         let width = height * aspect;
-        let top_left = position - w * focal + v * height * 0.5 - u * width * 0.5;
-        Self { position, top_left, viewport_u: u * width, viewport_v: v * height }
+        let to_top_left = -w * focal + v * height * 0.5 - u * width * 0.5;
+        Self { position, to_top_left, viewport_u: u * width, viewport_v: v * height }
     }
 
     /// The camera's position.
@@ -43,8 +48,8 @@ impl Camera {
     #[inline]
     #[must_use]
     pub fn generate_ray(&self, sx: f32, sy: f32) -> Ray {
-        let target = self.top_left + sx * self.viewport_u - sy * self.viewport_v;
-        Ray::new(self.position, (target - self.position).normalize())
+        let direction = self.to_top_left + sx * self.viewport_u - sy * self.viewport_v;
+        Ray::new(self.position, direction.normalize())
     }
 }
 
@@ -63,5 +68,17 @@ mod tests {
         assert!(top.direction.y > 0.0, "row 0 is the top");
         // Half the vertical field of view: 30 degrees.
         assert!((top.direction.y.atan2(top.direction.z).to_degrees() - 30.0).abs() < 1e-3);
+    }
+
+    #[test]
+    fn rays_stay_finite_and_distinct_far_from_the_origin() {
+        for far in [1e7f32, 1e12, 1e20, 1e30] {
+            let p = Vec3::new(far, -far, 0.5 * far);
+            let cam = Camera::new(p, p + Vec3::new(1.0, 2.0, 3.0) * far * 1e-3, Vec3::Y, 60.0, 1.5);
+            let (a, b) = (cam.generate_ray(0.5, 0.5), cam.generate_ray(0.501, 0.5));
+            assert!(a.is_valid() && b.is_valid(), "{far}: {a:?}");
+            assert!((a.direction - Vec3::new(1.0, 2.0, 3.0).normalize()).length() < 1e-3, "{far}: {a:?}");
+            assert!(a.direction != b.direction, "{far}: neighbouring pixels share a direction");
+        }
     }
 }

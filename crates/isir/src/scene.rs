@@ -5,6 +5,7 @@
 //! descriptions too); [`SceneDescription::build`] loads meshes and builds their
 //! acceleration structures.
 
+use crate::aabb::Aabb;
 use crate::camera::Camera;
 use crate::color::{Color, GREY, WHITE};
 use crate::error::{Error, Result};
@@ -232,6 +233,66 @@ impl CameraDesc {
     pub fn build(&self, aspect: f32) -> Camera {
         Camera::new(self.position, self.look_at, self.up, self.fovy, aspect)
     }
+
+    /// A camera that sees the whole box `bounds`, from the front (+z) and a little above,
+    /// and a point light at the camera that lights what it sees: how a mesh file given
+    /// alone is framed. Computed in double precision, so it is finite for any box within
+    /// [`MAX_COORDINATE`].
+    ///
+    /// # Errors
+    /// An empty box (nothing to look at) or one beyond [`MAX_COORDINATE`].
+    pub fn framing(bounds: &Aabb) -> Result<(CameraDesc, Light)> {
+        if bounds.is_empty() {
+            return Err(Error::Scene("there is no triangle to look at".into()));
+        }
+        check_extent("the model", bounds.min.abs().max(bounds.max.abs()).max_element())?;
+        let (min, max) = (bounds.min.as_dvec3(), bounds.max.as_dvec3());
+        let (c, r) = ((min + max) * 0.5, (max - min).length().max(1e-6));
+        let eye = c + glam::DVec3::new(0.0, 0.25, 1.0).normalize() * r * 1.1;
+        let camera = CameraDesc::new(eye.as_vec3(), c.as_vec3());
+        let light = Light::Point { position: eye.as_vec3(), color: WHITE, power: (1.2 * r * r) as f32 };
+        Ok((camera, light))
+    }
+
+    /// Check that the camera can form rays: finite, looking somewhere, `up` not along the
+    /// view, a field of view in (0°, 180°).
+    ///
+    /// # Errors
+    /// Which of those fails.
+    pub fn validate(&self) -> Result<()> {
+        let bad = |why: String| Err(Error::Scene(format!("camera: {why}")));
+        if !(self.position.is_finite() && self.look_at.is_finite() && self.up.is_finite()) {
+            return bad(format!("position {}, look-at {} and up {} must be finite", self.position, self.look_at, self.up));
+        }
+        check_extent("the camera", self.position.abs().max(self.look_at.abs()).max_element())?;
+        let w = self.position - self.look_at;
+        if w.length_squared() == 0.0 || !w.length_squared().is_normal() {
+            return bad(format!("position and look-at are the same point {}", self.position));
+        }
+        if self.up.cross(w.normalize()).length_squared() < 1e-12 {
+            return bad(format!("up {} is along the viewing direction", self.up));
+        }
+        if !(self.fovy > 0.0 && self.fovy < 180.0) {
+            return bad(format!("fovy {} must be between 0 and 180 degrees", self.fovy));
+        }
+        Ok(())
+    }
+}
+
+/// The largest coordinate magnitude a scene may hold. isir traces in single precision:
+/// beyond about 1e12 the products of Möller–Trumbore (`|s|·|e1|·|e2|`) and of the sphere
+/// test (`|o - c|²`) overflow, and rays would silently miss. Scenes beyond it are rejected
+/// with a message instead.
+pub const MAX_COORDINATE: f32 = 1e12;
+
+fn check_extent(what: &str, magnitude: f32) -> Result<()> {
+    if magnitude <= MAX_COORDINATE {
+        return Ok(());
+    }
+    Err(Error::Scene(format!(
+        "{what} reaches coordinates of {magnitude:.1e}, beyond the ±{MAX_COORDINATE:.0e} isir traces in single precision \
+         (ray–triangle products would overflow); scale it down"
+    )))
 }
 
 /// Where a mesh comes from.
@@ -328,6 +389,17 @@ impl SceneDescription {
     /// # Errors
     /// As [`Self::build`].
     pub fn build_with(&self, accel: Accel, triangle_test: TriangleTest) -> Result<Scene> {
+        self.camera.validate()?;
+        for (i, light) in self.lights.iter().enumerate() {
+            let (points, power) = match *light {
+                Light::Point { position, power, .. } => (vec![position], power),
+                Light::Quad { corner, u, v, power, .. } => (vec![corner, corner + u, corner + v, corner + u + v], power),
+            };
+            if !points.iter().all(|p| p.is_finite()) || !power.is_finite() {
+                return Err(Error::Scene(format!("light {}: position and power must be finite", i + 1)));
+            }
+            check_extent(&format!("light {}", i + 1), points.iter().map(|p| p.abs().max_element()).fold(0.0, f32::max))?;
+        }
         let mut materials: Vec<Material> = vec![Material::Color(WHITE)]; // the default
         let mut by_name = std::collections::HashMap::new();
         for (name, m) in &self.materials {
@@ -346,9 +418,22 @@ impl SceneDescription {
         let mut warnings = Vec::new();
         for desc in &self.objects {
             let chosen = lookup(&desc.material)?;
+            let what = format!("object '{}'", desc.name);
             let (geometry, mats) = match &desc.shape {
-                ShapeDesc::Sphere(s) => (Geometry::Sphere(*s), vec![chosen.unwrap_or(0)]),
-                ShapeDesc::Plane(p) => (Geometry::Plane(*p), vec![chosen.unwrap_or(0)]),
+                ShapeDesc::Sphere(s) => {
+                    if !(s.center.is_finite() && s.radius.is_finite() && s.radius > 0.0) {
+                        return Err(Error::Scene(format!("{what}: a sphere needs a finite centre and a positive radius")));
+                    }
+                    check_extent(&what, s.center.abs().max_element() + s.radius)?;
+                    (Geometry::Sphere(*s), vec![chosen.unwrap_or(0)])
+                }
+                ShapeDesc::Plane(p) => {
+                    if !(p.point.is_finite() && p.normal.is_finite() && p.normal != Vec3::ZERO) {
+                        return Err(Error::Scene(format!("{what}: a plane needs a finite point and a non-zero normal")));
+                    }
+                    check_extent(&what, p.point.abs().max_element())?;
+                    (Geometry::Plane(*p), vec![chosen.unwrap_or(0)])
+                }
                 ShapeDesc::Mesh { source, shading } => {
                     let loaded = match source {
                         MeshSource::File(path) => obj::load_obj(path)?,
@@ -356,6 +441,10 @@ impl SceneDescription {
                     };
                     warnings.extend(loaded.warnings.iter().map(|w| format!("{}: {w}", desc.name)));
                     let mut mesh = loaded.mesh;
+                    let b = mesh.aabb();
+                    if !b.is_empty() {
+                        check_extent(&what, b.min.abs().max(b.max.abs()).max_element())?;
+                    }
                     mesh.shading = *shading;
                     mesh.triangle_test = triangle_test;
                     mesh.build_accel(accel);

@@ -324,7 +324,10 @@ impl TriangleMesh {
     #[must_use]
     pub fn face_normal(&self, prim: u32) -> Vec3 {
         let [a, b, c] = self.triangle_vertices(prim);
-        (b - a).cross(c - a).normalize_or_zero()
+        let n = (b - a).cross(c - a);
+        // Scaled to its largest component first: the squared length of the cross product
+        // overflows for edges beyond ~1e10 and underflows below ~1e-10.
+        (n / n.abs().max_element()).normalize_or_zero()
     }
 
     /// The point of triangle `prim` at barycentrics `(u, v)`, computed from them (not as
