@@ -448,6 +448,24 @@ impl SceneDescription {
                     mesh.shading = *shading;
                     mesh.triangle_test = triangle_test;
                     mesh.build_accel(accel);
+                    let overlap = mesh.remove_overlaps();
+                    // Known facts about the shipped models are not warnings.
+                    if matches!(source, MeshSource::File(_)) {
+                        let stats = mesh.stats();
+                        if stats.duplicates > 0 {
+                            warnings.push(format!(
+                                "{}: {} duplicate triangles (the same three vertices as an earlier one) are hit as that one",
+                                desc.name, stats.duplicates
+                            ));
+                        }
+                        if let Some((tests, at)) = overlap {
+                            warnings.push(format!(
+                                "{}: many triangles overlap near {at:.4} (coincident, nested or rotated copies): \
+                                 a ray there tests {tests} triangles, rendering will be slow",
+                                desc.name
+                            ));
+                        }
+                    }
                     let mats = match chosen {
                         Some(id) => vec![id; loaded.materials.len() + 1],
                         None => {

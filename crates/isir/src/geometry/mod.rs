@@ -6,7 +6,7 @@ mod triangle_mesh;
 
 pub use plane::Plane;
 pub use sphere::Sphere;
-pub use triangle_mesh::{MeshAccel, MeshHit, MeshStats, Shading, TriangleMesh};
+pub use triangle_mesh::{MeshAccel, MeshHit, MeshStats, Shading, TriangleMesh, OVERLAP_WARNING};
 
 /// A closed set of kinds, dispatched with a `match` (no vtables).
 #[derive(Clone, Debug)]

@@ -10,6 +10,80 @@ use crate::triangle::{moller_trumbore, TriangleTest, WatertightRay};
 use crate::wide::WideBvh;
 use glam::{Vec2, Vec3};
 
+/// Triangle tests by one probe ray above which [`TriangleMesh::overlap_probe`] reports
+/// an overlap (ordinary meshes need tens).
+pub const OVERLAP_WARNING: u64 = 1000;
+
+/// Mark as invalid every valid triangle whose three vertex positions (as a set, `-0.0` as
+/// `0.0`) equal an earlier valid triangle's; return how many. Closest-hit traversal cannot
+/// cull coincident triangles (they are all at the same distance), so two million copies
+/// of one triangle were two million tests per ray.
+///
+/// PERF: 64-bit hashes computed in parallel, then one pass through a map from hash to the
+/// first triangle with it (a pre-hashed key: no second hashing). It costs the conference
+/// room ~15 ms (its whole `TriangleMesh::new` is 4.4 ms), so it runs only where the overlap
+/// probe found copies to remove. A hash met again is confirmed by comparing the vertices;
+/// the astronomically rare different triangle with an equal hash is kept.
+fn mark_duplicates(vertices: &[Vec3], triangles: &[[u32; 3]], valid: &mut [bool]) -> usize {
+    use rayon::prelude::*;
+    use std::collections::hash_map::{Entry, HashMap};
+    let key = |t: &[u32; 3]| -> [[u32; 3]; 3] {
+        let mut k = t.map(|i| {
+            let p = vertices[i as usize] + Vec3::ZERO; // -0.0 + 0.0 = 0.0
+            [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()]
+        });
+        k.sort_unstable();
+        k
+    };
+    let hashes: Vec<u64> = triangles
+        .par_iter()
+        .map(|t| {
+            key(t)
+                .iter()
+                .flatten()
+                .fold(0xcbf2_9ce4_8422_2325u64, |h, &x| (h ^ u64::from(x)).wrapping_mul(0x0000_0100_0000_01b3).rotate_left(29))
+        })
+        .collect();
+    let mut first: HashMap<u64, u32, std::hash::BuildHasherDefault<PreHashed>> =
+        HashMap::with_capacity_and_hasher(triangles.len(), Default::default());
+    let mut duplicates = 0;
+    for (i, &h) in hashes.iter().enumerate() {
+        if !valid[i] {
+            continue;
+        }
+        match first.entry(h) {
+            Entry::Vacant(e) => {
+                e.insert(i as u32);
+            }
+            Entry::Occupied(e) => {
+                if key(&triangles[*e.get() as usize]) == key(&triangles[i]) {
+                    valid[i] = false;
+                    duplicates += 1;
+                }
+            }
+        }
+    }
+    duplicates
+}
+
+/// A hasher for keys that are hashes already.
+#[derive(Default)]
+struct PreHashed(u64);
+
+impl std::hash::Hasher for PreHashed {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.0 = (self.0 << 8) ^ u64::from(b);
+        }
+    }
+    fn write_u64(&mut self, x: u64) {
+        self.0 = x;
+    }
+}
+
 /// Which normal shades a hit.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Shading {
@@ -61,6 +135,10 @@ pub struct MeshStats {
     pub triangles: usize,
     /// Triangles left out of every query: zero area or non-finite vertices.
     pub degenerate: usize,
+    /// Triangles left out of every query because an earlier triangle has the same three
+    /// vertex positions (in any order): the first copy is the one hit. Counted (and left
+    /// out) by [`TriangleMesh::remove_overlaps`] only where copies slowed traversal.
+    pub duplicates: usize,
     /// BVH nodes (0 without a BVH).
     pub nodes: usize,
     /// SAH cost of the BVH (0 without one): for `bvh-mid`, of the binary tree with 1:1
@@ -157,6 +235,85 @@ impl TriangleMesh {
     #[must_use]
     pub fn accel(&self) -> &MeshAccel {
         &self.accel
+    }
+
+    /// Look for places where many triangles overlap (coincident, nested or rotated copies
+    /// in one plane), which make closest-hit traversal test them all: rays through random
+    /// points of random triangles, along their normals, each counting its triangle tests.
+    /// Returns the worst count and the point where it happened when it exceeds
+    /// [`OVERLAP_WARNING`], `None` otherwise or without a BVH. Costs at most about 2^20
+    /// triangle tests (a few milliseconds), whatever the mesh.
+    #[must_use]
+    pub fn overlap_probe(&self) -> Option<(u64, Vec3)> {
+        let valid: Vec<u32> = (0..self.triangles.len() as u32).filter(|&i| self.valid[i as usize]).collect();
+        if valid.len() <= OVERLAP_WARNING as usize {
+            return None;
+        }
+        let mut rng = crate::sampling::Sampler::from_seed(0x15_1e);
+        let (mut spent, mut worst) = (0u64, (0u64, Vec3::ZERO));
+        for _ in 0..256 {
+            let prim = valid[(rng.next_f32() * valid.len() as f32) as usize % valid.len()];
+            let xi = rng.next_2d();
+            let (u, v) = if xi.x + xi.y > 1.0 { (1.0 - xi.x, 1.0 - xi.y) } else { (xi.x, xi.y) };
+            let (p, _) = self.surface_point(prim, u, v);
+            let n = self.face_normal(prim);
+            let reach = self.aabb.diagonal().length();
+            let ray = Ray::new(p + n * reach, -n);
+            let tests = match &self.accel {
+                MeshAccel::Wide(w) => {
+                    let mut stats = crate::wide::TraversalStats::default();
+                    w.intersect_stats::<true>(&ray, 0.0, f32::INFINITY, &mut stats);
+                    stats.triangles
+                }
+                MeshAccel::Bvh(bvh) => {
+                    let test = self.ray_test(&ray);
+                    let mut tests = 0u64;
+                    bvh.intersect(&ray, 0.0, f32::INFINITY, |prim, t_max| {
+                        tests += 1;
+                        self.hit_triangle(&test, prim, 0.0, t_max).map(|h| h.t)
+                    });
+                    tests
+                }
+                MeshAccel::None | MeshAccel::Aabb => return None, // every triangle by choice
+            };
+            if tests > worst.0 {
+                worst = (tests, p);
+            }
+            spent += tests;
+            if spent > 1 << 20 {
+                break;
+            }
+        }
+        (worst.0 > OVERLAP_WARNING).then_some(worst)
+    }
+
+    /// Make sure overlapping triangles do not turn traversal into a linear scan, after
+    /// [`Self::build_accel`]: when [`Self::overlap_probe`] finds a place where one ray
+    /// tests over [`OVERLAP_WARNING`] triangles, exact copies of a triangle are left out
+    /// (the first copy stays: [`MeshStats::duplicates`]) and the structure rebuilt. Returns
+    /// what the probe still finds then (nested or rotated coplanar copies, which no
+    /// renderer can cull), for a warning. Ordinary meshes pay a few hundred probe rays.
+    pub fn remove_overlaps(&mut self) -> Option<(u64, Vec3)> {
+        self.overlap_probe()?;
+        let removed = mark_duplicates(&self.vertices, &self.triangles, &mut self.valid);
+        if removed > 0 {
+            self.stats.duplicates += removed;
+            let accel = match self.accel {
+                MeshAccel::None => Accel::None,
+                MeshAccel::Aabb => Accel::Aabb,
+                MeshAccel::Bvh(_) => Accel::BvhMid,
+                MeshAccel::Wide(_) => Accel::BvhSah,
+            };
+            let level = match &self.accel {
+                MeshAccel::Wide(w) => Some(w.level()),
+                _ => None,
+            };
+            self.build_accel(accel);
+            if let (Some(level), MeshAccel::Wide(w)) = (level, &mut self.accel) {
+                w.set_level(level);
+            }
+        }
+        self.overlap_probe()
     }
 
     /// The three vertices of triangle `prim`.
