@@ -3,7 +3,7 @@
 //! files in the same run and print the ratio isir / Embree and the hit agreement.
 
 use crate::trace::{build_timed, trace_timed, Mode, TraceFigures};
-use crate::{warn_all, with_threads};
+use crate::{threads_phrase, warn_all, with_threads};
 use anyhow::Context;
 use clap::Args;
 use isir::rays::{self, compare_hits, HitRecord, RayKind};
@@ -34,9 +34,9 @@ pub struct BenchArgs {
     #[arg(long, default_value_t = 800)]
     pub height: u32,
     /// Best of this many builds (at most 3) and traces.
-    #[arg(long, default_value_t = 5)]
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..))]
     pub repeat: u32,
-    /// Threads for both engines (default: one per core).
+    /// Threads for both engines (default: one per core; at most 1024).
     #[arg(long)]
     pub threads: Option<usize>,
     /// Seed of the diffuse and shadow rays.
@@ -224,11 +224,12 @@ fn bench_in(a: &BenchArgs, name: &str, desc: &SceneDescription, scene: &Scene, s
 
     // ---- Table ----
     println!(
-        "isir bench: {name}, {} triangles ({} degenerate), {}x{} rays, {threads} threads, isir simd {}{}{}",
+        "isir bench: {name}, {} triangles ({} degenerate), {}x{} rays, {}, isir simd {}{}{}",
         build.stats.triangles,
         build.stats.degenerate,
         a.width,
         a.height,
+        threads_phrase(threads),
         build.simd,
         embree
             .as_ref()

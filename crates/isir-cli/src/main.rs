@@ -30,12 +30,26 @@ enum Command {
     Bench(bench::BenchArgs),
 }
 
+/// The most worker threads `--threads` accepts: far more than any machine this runs on has
+/// cores (more threads than cores only cost time), and few enough to start at once.
+pub const MAX_THREADS: usize = 1024;
+
 /// Where the thread count option leads: the global pool, or a pool of `n` threads.
 pub fn with_threads<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Send) -> anyhow::Result<T> {
     match threads {
         None => Ok(f()),
         Some(0) => anyhow::bail!("--threads must be at least 1"),
+        Some(n) if n > MAX_THREADS => anyhow::bail!("--threads {n}: at most {MAX_THREADS} worker threads"),
         Some(n) => Ok(rayon::ThreadPoolBuilder::new().num_threads(n).build()?.install(f)),
+    }
+}
+
+/// "1 thread", "2 threads".
+pub fn threads_phrase(n: usize) -> String {
+    if n == 1 {
+        "1 thread".to_string()
+    } else {
+        format!("{n} threads")
     }
 }
 
@@ -71,6 +85,56 @@ fn run(cli: Cli) -> anyhow::Result<()> {
     }
 }
 
+/// An error and its causes on one line, each text once: the library's I/O errors quote
+/// their OS error (`path: No such file or directory (os error 2)`) and also return it as
+/// their `source()`, so a cause the message so far already ends with is not repeated.
+fn error_line(e: &anyhow::Error) -> String {
+    let mut line = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        if line.ends_with(&text) {
+            continue;
+        }
+        if !line.is_empty() {
+            line.push_str(": ");
+        }
+        line.push_str(&text);
+    }
+    line
+}
+
+/// clap's message on one line, without the usage page: the problem, then what it lists
+/// (the missing arguments, the possible values) and its suggestions.
+fn clap_error_line(e: &clap::Error) -> String {
+    let text = e.to_string();
+    let mut line = String::new();
+    for l in text.lines().map(str::trim) {
+        if l.starts_with("Usage:") || l.starts_with("For more information") {
+            break;
+        }
+        if l.is_empty() || (l.starts_with("tip:") && !l.contains("similar")) {
+            continue;
+        }
+        let l = l.strip_prefix("error: ").unwrap_or(l);
+        if line.is_empty() {
+            line.push_str(l);
+        } else if line.ends_with(':') || l.starts_with('[') {
+            line.push(' ');
+            line.push_str(l);
+        } else if let Some(tip) = l.strip_prefix("tip: ") {
+            line.push_str(&format!(" ({tip})"));
+        } else {
+            line.push_str(", ");
+            line.push_str(l);
+        }
+    }
+    if line.is_empty() {
+        "bad arguments".to_string()
+    } else {
+        line
+    }
+}
+
 fn main() {
     let cli = match Cli::try_parse() {
         Ok(c) => c,
@@ -81,14 +145,40 @@ fn main() {
                 e.exit();
             }
             // One line naming the problem, not clap's usage page.
-            let msg = e.to_string();
-            let first = msg.lines().next().unwrap_or("bad arguments").trim_start_matches("error: ");
-            eprintln!("isir: error: {first} (see 'isir --help')");
+            eprintln!("isir: error: {} (see 'isir --help')", clap_error_line(&e));
             std::process::exit(2);
         }
     };
     if let Err(e) = run(cli) {
-        eprintln!("isir: error: {e:#}");
+        eprintln!("isir: error: {}", error_line(&e));
         std::process::exit(1);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn os_errors_are_printed_once() {
+        let io = std::io::Error::from(std::io::ErrorKind::NotFound);
+        let text = io.to_string();
+        let e: anyhow::Error = isir::Error::Io { path: "/x/y.rays".into(), source: io }.into();
+        assert_eq!(error_line(&e), format!("/x/y.rays: {text}"));
+        let e = e.context("writing the image");
+        assert_eq!(error_line(&e), format!("writing the image: /x/y.rays: {text}"));
+        // Causes that are not quoted are kept.
+        let e = anyhow::Error::from(std::io::Error::from(std::io::ErrorKind::NotFound)).context("running embree-bench");
+        assert_eq!(error_line(&e), format!("running embree-bench: {text}"));
+    }
+
+    #[test]
+    fn clap_errors_fit_on_one_line_and_name_what_they_list() {
+        let err = |args: &[&str]| clap_error_line(&Cli::try_parse_from(args).unwrap_err());
+        assert_eq!(err(&["isir", "trace"]), "the following required arguments were not provided: <MESH>, <RAYS>");
+        let e = err(&["isir", "render", "--integrator", "raycast"]);
+        assert!(e.contains("'raycast'") && e.contains("[possible values: ray-cast, direct]") && e.contains("'ray-cast'"), "{e}");
+        let e = err(&["isir", "render", "--widht", "3"]);
+        assert!(e.contains("'--widht'") && e.contains("'--width'") && !e.contains("Usage"), "{e}");
     }
 }

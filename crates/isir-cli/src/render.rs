@@ -1,6 +1,6 @@
 //! `isir render`.
 
-use crate::{warn_all, with_threads};
+use crate::{threads_phrase, warn_all, with_threads};
 use anyhow::Context;
 use clap::{Args, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -45,7 +45,7 @@ pub struct RenderArgs {
     /// Integrator (default: the scene's).
     #[arg(long, value_enum)]
     pub integrator: Option<IntegratorArg>,
-    /// Worker threads (default: one per core).
+    /// Worker threads (default: one per core; at most 1024).
     #[arg(long)]
     pub threads: Option<usize>,
     /// Seed of the random numbers.
@@ -99,7 +99,7 @@ pub fn build_scene(name: &str, accel: Accel, test: TriangleTest) -> anyhow::Resu
 }
 
 pub fn run(a: RenderArgs) -> anyhow::Result<()> {
-    // Every check before any work.
+    // Every check before any work (the output's directory is writable, too).
     isir::image::check_size(a.width, a.height)?;
     isir::image::check_output_path(&a.output)?;
     anyhow::ensure!(a.spp != Some(0), "--spp must be at least 1");
@@ -141,11 +141,11 @@ fn render_in_pool(a: &RenderArgs) -> anyhow::Result<()> {
 
     image.save(&a.output, desc.display).with_context(|| "writing the image".to_string())?;
     println!(
-        "isir: {name} {}x{} {spp} spp, {}, {} threads: build {:.3} s, render {:.3} s, {:.2} M rays ({:.2} M primary, {:.2} M shadow), {:.2} Mrays/s -> wrote {}",
+        "isir: {name} {}x{} {spp} spp, {}, {}: build {:.3} s, render {:.3} s, {:.2} M rays ({:.2} M primary, {:.2} M shadow), {:.2} Mrays/s -> wrote {}",
         a.width,
         a.height,
         accel.name(),
-        rayon::current_num_threads(),
+        threads_phrase(rayon::current_num_threads()),
         build_s,
         stats.seconds,
         stats.rays.total() as f64 * 1e-6,

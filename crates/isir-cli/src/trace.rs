@@ -47,11 +47,11 @@ pub struct TraceArgs {
     /// (none, aabb, bvh-mid, bvh-sah)
     #[arg(long, default_value = "bvh-sah")]
     pub accel: Accel,
-    /// Worker threads (default: one per core).
+    /// Worker threads (default: one per core; at most 1024).
     #[arg(long)]
     pub threads: Option<usize>,
     /// Time the build and the trace this many times and keep the best.
-    #[arg(long, default_value_t = 5)]
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..))]
     pub repeat: u32,
     /// Code path of the wide BVH, bvh-sah only (scalar, avx2, avx512; default: the
     /// best this CPU has).
@@ -79,12 +79,13 @@ pub enum Mode {
 
 pub fn rays(a: RaysArgs) -> anyhow::Result<()> {
     isir::image::check_size(a.width, a.height)?;
+    isir::output::check_writable(&a.output)?;
     let (desc, scene) = crate::render::build_scene(&a.scene, Accel::BvhSah, isir::triangle::TriangleTest::MollerTrumbore)?;
     warn_all(&scene.warnings);
     let camera = desc.camera.build(a.width as f32 / a.height as f32);
-    let set = rays::generate(&scene, &camera, a.width, a.height, a.kind, a.seed)?;
-    rays::write_rays(&a.output, &set)?;
-    println!("rays: {}\nwrote: {}", set.len(), a.output.display());
+    // Written as generated, a band of rows at a time: memory bounded whatever the size.
+    let n = rays::write_ray_set(&a.output, &scene, &camera, a.width, a.height, a.kind, a.seed)?;
+    println!("rays: {n}\nwrote: {}", a.output.display());
     Ok(())
 }
 
@@ -180,6 +181,15 @@ pub fn trace_timed(mesh: &TriangleMesh, rays: &[RayRecord], mode: Mode, repeat: 
 }
 
 pub fn trace(a: TraceArgs) -> anyhow::Result<()> {
+    // Every check of the arguments before loading anything.
+    anyhow::ensure!(!(a.packets && a.occluded), "--packets traces closest hits: drop --occluded or --packets");
+    if let Some(l) = a.simd {
+        anyhow::ensure!(a.accel == Accel::BvhSah, "--simd {} applies to --accel bvh-sah only, not {}", l.name(), a.accel.name());
+        anyhow::ensure!(SimdLevel::available().contains(&l), "--simd {}: this CPU cannot run it", l.name());
+    }
+    if let Some(out) = &a.hits {
+        isir::output::check_writable(out)?;
+    }
     with_threads(a.threads, || trace_in_pool(&a))?
 }
 
@@ -192,7 +202,6 @@ fn trace_in_pool(a: &TraceArgs) -> anyhow::Result<()> {
     }
     let set = rays::read_rays(&a.rays)?;
     let (accel, simd) = (a.accel, a.simd);
-    anyhow::ensure!(!(a.packets && a.occluded), "--packets traces closest hits: drop --occluded or --packets");
     let mode = if a.occluded {
         Mode::Occluded
     } else if a.packets {

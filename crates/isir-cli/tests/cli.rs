@@ -154,3 +154,198 @@ fn bench_rounds_print_medians_and_reject_zero() {
     let (code, _, err) = isir(&["bench", "--rounds", "0", "--no-embree"]);
     one_line_error(code, &err, "--rounds");
 }
+
+/// Run `isir` and wait at most `secs` seconds: a run that takes longer is killed and fails
+/// the test (a check that should come before the work did not).
+fn isir_within(secs: u64, args: &[&str]) -> (i32, String, String) {
+    use std::io::Read;
+    use std::process::Stdio;
+    let mut child = Command::new(env!("CARGO_BIN_EXE_isir"))
+        .args(args)
+        .current_dir(env!("CARGO_TARGET_TMPDIR"))
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let (mut out, mut err) = (child.stdout.take().unwrap(), child.stderr.take().unwrap());
+    let out = std::thread::spawn(move || {
+        let mut s = String::new();
+        out.read_to_string(&mut s).ok();
+        s
+    });
+    let err = std::thread::spawn(move || {
+        let mut s = String::new();
+        err.read_to_string(&mut s).ok();
+        s
+    });
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(secs);
+    let status = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s;
+        }
+        if std::time::Instant::now() > deadline {
+            child.kill().ok();
+            child.wait().ok();
+            panic!("isir {args:?} still running after {secs} s");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    };
+    (status.code().unwrap_or(-1), out.join().unwrap(), err.join().unwrap())
+}
+
+/// Files in `dir` whose names start with `.{name}.tmp`: temporary files left behind.
+fn temporaries(dir: &std::path::Path, name: &str) -> Vec<String> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .filter_map(|e| e.ok()?.file_name().into_string().ok())
+        .filter(|n| n.starts_with(&format!(".{name}.tmp")))
+        .collect()
+}
+
+/// A write that fails half-way (a file-size limit of one block, SIGXFSZ ignored, so the
+/// write returns EFBIG) is an error naming the file, and the file that was there is intact.
+#[cfg(unix)]
+#[test]
+fn a_failed_write_is_an_error_and_keeps_the_old_file() {
+    let dir = tmp("efbig");
+    std::fs::create_dir_all(&dir).unwrap();
+    let mesh = tmp("efbig-mesh.rays");
+    let (code, _, err) =
+        isir(&["rays", "tp4-sphere", "--kind", "primary", "-o", mesh.to_str().unwrap(), "--width", "40", "--height", "30"]);
+    assert_eq!(code, 0, "{err}");
+    let cases: [(&str, Vec<&str>); 5] = [
+        // Smaller than the writer's buffer: only the last flush fails.
+        ("small.png", vec!["render", "tp4-sphere", "--width", "40", "--height", "30", "-o"]),
+        ("big.png", vec!["render", "tp4-sphere", "--width", "200", "--height", "150", "--spp", "4", "-o"]),
+        ("big.exr", vec!["render", "tp4-sphere", "--width", "200", "--height", "150", "--spp", "1", "-o"]),
+        ("big.rays", vec!["rays", "tp4-sphere", "--kind", "primary", "--width", "200", "--height", "150", "-o"]),
+        ("big.hits", vec!["trace", "uvsphere", mesh.to_str().unwrap(), "--repeat", "1", "--hits"]),
+    ];
+    for (name, args) in cases {
+        let target = dir.join(name);
+        std::fs::write(&target, b"the good old content").unwrap();
+        let script = r#"trap '' XFSZ; ulimit -f 1; exec "$@""#;
+        let out = Command::new("sh").args(["-c", script, "sh", env!("CARGO_BIN_EXE_isir")]).args(&args).arg(&target).output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        one_line_error(out.status.code().unwrap_or(-1), &err, target.to_str().unwrap());
+        assert!(err.contains("File too large") || err.contains("os error 27"), "{name}: {err}");
+        assert!(!String::from_utf8_lossy(&out.stdout).contains("wrote"), "{name}: reported as written");
+        assert_eq!(std::fs::read(&target).unwrap(), b"the good old content", "{name}: the old file was lost");
+        assert_eq!(temporaries(&dir, name), Vec::<String>::new(), "{name}: temporary files left");
+    }
+}
+
+/// An output path that cannot be written is reported before any work: a render that would
+/// take minutes fails at once, naming the path.
+#[test]
+fn unwritable_outputs_are_reported_before_any_work() {
+    let not_a_dir = tmp("plain-file");
+    std::fs::write(&not_a_dir, b"x").unwrap();
+    for out in ["/nonexistent-isir-dir/x.png".to_string(), format!("{}/x.exr", not_a_dir.display())] {
+        let (code, stdout, err) =
+            isir_within(10, &["render", "tp4-conference", "--width", "16384", "--height", "16384", "--spp", "1000", "-o", &out]);
+        one_line_error(code, &err, &out);
+        assert!(stdout.is_empty(), "{stdout}");
+    }
+    let (code, _, err) = isir_within(
+        10,
+        &["rays", "tp4-conference", "--kind", "shadow", "--width", "16384", "--height", "16384", "-o", "/nonexistent-isir-dir/r.rays"],
+    );
+    one_line_error(code, &err, "/nonexistent-isir-dir/r.rays");
+    // The hit file is checked before the mesh and the ray file are read.
+    let (code, _, err) = isir_within(10, &["trace", "/nonexistent.obj", "/nonexistent.rays", "--hits", "/nonexistent-isir-dir/h.hits"]);
+    one_line_error(code, &err, "/nonexistent-isir-dir/h.hits");
+    // A directory is not an image.
+    let dir = tmp("a-dir.png");
+    std::fs::create_dir_all(&dir).unwrap();
+    let (code, _, err) = isir_within(10, &["render", "tp4-conference", "--spp", "1000", "-o", dir.to_str().unwrap()]);
+    one_line_error(code, &err, "is a directory");
+}
+
+#[test]
+fn thread_counts_are_capped_with_a_clear_error() {
+    let (code, _, err) = isir_within(10, &["render", "tp4-sphere", "--threads", "1000000", "--width", "8", "--height", "8"]);
+    one_line_error(code, &err, "--threads");
+    assert!(err.contains("1024"), "{err}");
+    let (code, _, err) = isir_within(10, &["trace", "uvsphere", "x.rays", "--threads", "5000"]);
+    one_line_error(code, &err, "1024");
+    let (code, help, err) = isir(&["render", "--help"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(help.contains("1024"), "{help}");
+}
+
+#[test]
+fn os_errors_are_printed_once_with_the_path() {
+    let (code, _, err) = isir(&["trace", "uvsphere", "/nonexistent/r.rays"]);
+    one_line_error(code, &err, "/nonexistent/r.rays");
+    assert_eq!(err.matches("os error 2").count(), 1, "{err}");
+    let (code, _, err) = isir(&["render", "/nonexistent/model.obj"]);
+    one_line_error(code, &err, "/nonexistent/model.obj");
+    assert_eq!(err.matches("os error 2").count(), 1, "{err}");
+}
+
+#[test]
+fn argument_errors_name_the_arguments_and_values() {
+    let (code, _, err) = isir(&["trace"]);
+    one_line_error(code, &err, "<MESH>");
+    assert!(err.contains("<RAYS>"), "{err}");
+    let (code, _, err) = isir(&["rays", "tp4-sphere", "-o", "x.rays"]);
+    one_line_error(code, &err, "--kind");
+    let (code, _, err) = isir(&["render", "--integrator", "foo"]);
+    one_line_error(code, &err, "foo");
+    assert!(err.contains("ray-cast") && err.contains("direct"), "{err}");
+    let (code, _, err) = isir(&["render", "--accel", "foo"]);
+    one_line_error(code, &err, "foo");
+    assert!(err.contains("bvh-sah") && err.contains("bvh-mid"), "{err}");
+    assert!(!err.contains("Usage"), "{err}");
+}
+
+#[test]
+fn incompatible_flags_are_rejected_before_loading() {
+    // The mesh and ray files do not exist: the flags are what must be reported.
+    let (code, _, err) = isir(&["trace", "/nonexistent.obj", "/nonexistent.rays", "--packets", "--occluded"]);
+    one_line_error(code, &err, "--packets");
+    assert!(!err.contains("nonexistent"), "{err}");
+    let (code, _, err) = isir(&["trace", "/nonexistent.obj", "/nonexistent.rays", "--simd", "scalar", "--accel", "bvh-mid"]);
+    one_line_error(code, &err, "--simd");
+    assert!(!err.contains("nonexistent"), "{err}");
+    let (code, _, err) = isir(&["trace", "/nonexistent.obj", "/nonexistent.rays", "--repeat", "0"]);
+    one_line_error(code, &err, "--repeat");
+    let (code, _, err) = isir(&["bench", "--repeat", "0", "--no-embree"]);
+    one_line_error(code, &err, "--repeat");
+}
+
+#[test]
+fn one_thread_is_one_thread() {
+    let png = tmp("one-thread.png");
+    let (code, out, err) = isir(&["render", "tp4-sphere", "-o", png.to_str().unwrap(), "--width", "8", "--height", "8", "--threads", "1"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains(" 1 thread:") && !out.contains("threads"), "{out}");
+    let (code, out, err) =
+        isir(&["bench", "tp4-sphere", "--width", "8", "--height", "8", "--repeat", "1", "--no-embree", "--threads", "1"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains(" 1 thread,") && !out.contains("1 threads"), "{out}");
+}
+
+#[test]
+fn ray_files_whose_size_disagrees_with_the_header_are_rejected() {
+    let rays = tmp("size.rays");
+    let (code, _, err) = isir(&["rays", "tp4-sphere", "--kind", "primary", "-o", rays.to_str().unwrap(), "--width", "4", "--height", "2"]);
+    assert_eq!(code, 0, "{err}");
+    let good = std::fs::read(&rays).unwrap();
+    assert_eq!(good.len(), 24 + 8 * 32);
+    // Trailing bytes after the 8 records.
+    let trailing = tmp("trailing.rays");
+    std::fs::write(&trailing, [&good[..], &[0u8; 5]].concat()).unwrap();
+    let (code, _, err) = isir(&["trace", "uvsphere", trailing.to_str().unwrap(), "--repeat", "1"]);
+    one_line_error(code, &err, "trailing.rays");
+    assert!(err.contains('8') && err.contains("261"), "{err}");
+    // A header claiming 2^40 records: rejected at once, nothing allocated for them.
+    let mut huge = good.clone();
+    huge[16..24].copy_from_slice(&(1u64 << 40).to_le_bytes());
+    let claims = tmp("claims.rays");
+    std::fs::write(&claims, huge).unwrap();
+    let (code, _, err) = isir_within(10, &["trace", "uvsphere", claims.to_str().unwrap(), "--repeat", "1"]);
+    one_line_error(code, &err, "claims.rays");
+    assert!(err.contains(&(1u64 << 40).to_string()) && err.contains("256"), "{err}");
+}

@@ -5,7 +5,9 @@ use std::path::PathBuf;
 /// What can go wrong loading, building or saving.
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
-    /// A file could not be read or written.
+    /// A file could not be read or written. Its message quotes the OS error, which is
+    /// also its `source()`: a printer of error chains shows that text once (as `isir`
+    /// does), not after the message again.
     #[error("{path}: {source}")]
     Io {
         /// The file.

@@ -28,6 +28,7 @@ pub mod integrator;
 pub mod light;
 pub mod material;
 pub mod obj;
+pub mod output;
 pub mod packet;
 pub mod ray;
 pub mod rays;

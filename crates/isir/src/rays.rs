@@ -8,7 +8,7 @@ use crate::sampling::{pixel_rng, square_to_cosine_hemisphere};
 use crate::scene::Scene;
 use glam::Vec3;
 use rayon::prelude::*;
-use std::io::Write;
+use std::io::{Read, Seek, Write};
 use std::path::Path;
 
 const RAYS_MAGIC: &[u8; 8] = b"ISIRRAYS";
@@ -68,103 +68,149 @@ impl HitRecord {
     }
 }
 
-fn header(magic: &[u8; 8], count: usize) -> Vec<u8> {
-    let mut h = Vec::with_capacity(HEADER);
-    h.extend_from_slice(magic);
-    h.extend_from_slice(&1u32.to_le_bytes());
-    h.extend_from_slice(&0u32.to_le_bytes());
-    h.extend_from_slice(&(count as u64).to_le_bytes());
+fn header(magic: &[u8; 8], count: usize) -> [u8; HEADER] {
+    let mut h = [0; HEADER];
+    h[..8].copy_from_slice(magic);
+    h[8..12].copy_from_slice(&1u32.to_le_bytes());
+    h[16..24].copy_from_slice(&(count as u64).to_le_bytes());
     h
 }
 
-fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
-    let io = |source| Error::Io { path: path.to_path_buf(), source };
-    let mut f = std::io::BufWriter::new(std::fs::File::create(path).map_err(io)?);
-    f.write_all(bytes).map_err(io)?;
-    f.flush().map_err(io)
+/// Write a ray or hit file whole or not at all ([`crate::output`]), record by record:
+/// no copy of the records in memory.
+fn write_records<T>(path: &Path, magic: &[u8; 8], records: &[T], encode: impl Fn(&T, &mut Vec<u8>)) -> Result<()> {
+    crate::output::write_atomically(path, |w| {
+        w.write_all(&header(magic, records.len()))?;
+        let mut b = Vec::with_capacity(32);
+        for r in records {
+            b.clear();
+            encode(r, &mut b);
+            w.write_all(&b)?;
+        }
+        Ok(())
+    })
 }
 
-fn read_records<'a>(path: &Path, bytes: &'a [u8], magic: &[u8; 8], record: usize) -> Result<&'a [u8]> {
+/// Records read at a time.
+const READ_CHUNK: usize = 1 << 16;
+
+/// Read the records of a ray or hit file. The header's count is checked against the
+/// file's size before anything is allocated for the records: a file is read for what it
+/// holds, not for what it claims, and trailing bytes are an error too.
+fn read_records<T>(path: &Path, magic: &[u8; 8], record: usize, decode: impl Fn(&[u8]) -> T) -> Result<Vec<T>> {
+    let io = |source| Error::Io { path: path.to_path_buf(), source };
     let bad = |message: String| Error::RayFile { path: path.to_path_buf(), message };
-    if bytes.len() < HEADER || &bytes[..8] != magic {
+    let meta = std::fs::metadata(path).map_err(io)?;
+    if !meta.is_file() {
+        // A FIFO or a device has no size to check the header against (and may never end).
+        return Err(bad("not a regular file".into()));
+    }
+    let mut f = std::fs::File::open(path).map_err(io)?;
+    let mut h = [0u8; HEADER];
+    let mut got = 0;
+    while got < HEADER {
+        match f.read(&mut h[got..]).map_err(io)? {
+            0 => break,
+            n => got += n,
+        }
+    }
+    if got < HEADER || &h[..8] != magic {
         return Err(bad(format!("not a {} file (magic)", String::from_utf8_lossy(magic))));
     }
-    let version = u32::from_le_bytes(bytes[8..12].try_into().unwrap());
+    let version = u32::from_le_bytes(h[8..12].try_into().unwrap());
     if version != 1 {
         return Err(bad(format!("version {version} (only 1 is known)")));
     }
-    let count = u64::from_le_bytes(bytes[16..24].try_into().unwrap());
-    let body = &bytes[HEADER..];
-    if (body.len() as u64) < count.saturating_mul(record as u64) {
-        return Err(bad(format!("header says {count} records, the file holds {}", body.len() / record)));
+    let count = u64::from_le_bytes(h[16..24].try_into().unwrap());
+    let body = meta.len().saturating_sub(HEADER as u64); // (the file may have grown since)
+    let size = count.checked_mul(record as u64);
+    if size != Some(body) {
+        let (whole, rest) = (body / record as u64, body % record as u64);
+        let extra = if rest == 0 { String::new() } else { format!(" and {rest} bytes") };
+        let claimed = size.map_or_else(|| "more than 2^64".to_string(), |s| s.to_string());
+        return Err(bad(format!(
+            "header says {count} records ({claimed} bytes), the file holds {body} bytes after the header ({whole} records{extra})"
+        )));
     }
-    Ok(&body[..count as usize * record])
+    let count = usize::try_from(count).map_err(|_| bad(format!("{count} records do not fit in memory")))?;
+    let mut out = Vec::with_capacity(count);
+    let mut buf = vec![0u8; READ_CHUNK.min(count.max(1)) * record];
+    let mut f = std::io::BufReader::new(f);
+    while out.len() < count {
+        let n = (count - out.len()).min(READ_CHUNK);
+        let chunk = &mut buf[..n * record];
+        f.read_exact(chunk).map_err(|e| {
+            if e.kind() == std::io::ErrorKind::UnexpectedEof {
+                bad(format!("header says {count} records, the file ended after {} (it changed while read)", out.len()))
+            } else {
+                io(e)
+            }
+        })?;
+        out.extend(chunk.chunks_exact(record).map(&decode));
+    }
+    if f.read(&mut [0u8; 1]).map_err(io)? != 0 {
+        return Err(bad(format!("header says {count} records, the file holds more (it changed while read)")));
+    }
+    Ok(out)
 }
 
 fn f32_at(b: &[u8], i: usize) -> f32 {
     f32::from_le_bytes(b[4 * i..4 * i + 4].try_into().unwrap())
 }
 
-/// Write a ray file.
+fn encode_ray(r: &RayRecord, b: &mut Vec<u8>) {
+    for x in [r.origin.x, r.origin.y, r.origin.z, r.t_min, r.direction.x, r.direction.y, r.direction.z, r.t_max] {
+        b.extend_from_slice(&x.to_le_bytes());
+    }
+}
+
+/// Write a ray file, whole or not at all.
 ///
 /// # Errors
-/// The file cannot be written.
+/// The file cannot be written; the file that was there is then left intact.
 pub fn write_rays(path: &Path, rays: &[RayRecord]) -> Result<()> {
-    let mut b = header(RAYS_MAGIC, rays.len());
-    b.reserve(rays.len() * 32);
-    for r in rays {
-        for x in [r.origin.x, r.origin.y, r.origin.z, r.t_min, r.direction.x, r.direction.y, r.direction.z, r.t_max] {
-            b.extend_from_slice(&x.to_le_bytes());
-        }
-    }
-    write_file(path, &b)
+    write_records(path, RAYS_MAGIC, rays, encode_ray)
 }
 
 /// Read a ray file.
 ///
 /// # Errors
-/// The file cannot be read, or is not a v1 ray file, or is truncated.
+/// The file cannot be read, or is not a v1 ray file, or its size disagrees with its
+/// header's count (truncated, or trailing bytes).
 pub fn read_rays(path: &Path) -> Result<Vec<RayRecord>> {
-    let bytes = std::fs::read(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
-    let body = read_records(path, &bytes, RAYS_MAGIC, 32)?;
-    Ok(body
-        .chunks_exact(32)
-        .map(|c| RayRecord {
-            origin: Vec3::new(f32_at(c, 0), f32_at(c, 1), f32_at(c, 2)),
-            t_min: f32_at(c, 3),
-            direction: Vec3::new(f32_at(c, 4), f32_at(c, 5), f32_at(c, 6)),
-            t_max: f32_at(c, 7),
-        })
-        .collect())
+    read_records(path, RAYS_MAGIC, 32, |c| RayRecord {
+        origin: Vec3::new(f32_at(c, 0), f32_at(c, 1), f32_at(c, 2)),
+        t_min: f32_at(c, 3),
+        direction: Vec3::new(f32_at(c, 4), f32_at(c, 5), f32_at(c, 6)),
+        t_max: f32_at(c, 7),
+    })
 }
 
-/// Write a hit file.
+/// Write a hit file, whole or not at all.
 ///
 /// # Errors
-/// The file cannot be written.
+/// The file cannot be written; the file that was there is then left intact.
 pub fn write_hits(path: &Path, hits: &[HitRecord]) -> Result<()> {
-    let mut b = header(HITS_MAGIC, hits.len());
-    b.reserve(hits.len() * 16);
-    for h in hits {
+    write_records(path, HITS_MAGIC, hits, |h, b| {
         b.extend_from_slice(&h.t.to_le_bytes());
         b.extend_from_slice(&h.prim.to_le_bytes());
         b.extend_from_slice(&h.u.to_le_bytes());
         b.extend_from_slice(&h.v.to_le_bytes());
-    }
-    write_file(path, &b)
+    })
 }
 
 /// Read a hit file.
 ///
 /// # Errors
-/// The file cannot be read, or is not a v1 hit file, or is truncated.
+/// The file cannot be read, or is not a v1 hit file, or its size disagrees with its
+/// header's count (truncated, or trailing bytes).
 pub fn read_hits(path: &Path) -> Result<Vec<HitRecord>> {
-    let bytes = std::fs::read(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
-    let body = read_records(path, &bytes, HITS_MAGIC, 16)?;
-    Ok(body
-        .chunks_exact(16)
-        .map(|c| HitRecord { t: f32_at(c, 0), prim: u32::from_le_bytes(c[4..8].try_into().unwrap()), u: f32_at(c, 2), v: f32_at(c, 3) })
-        .collect())
+    read_records(path, HITS_MAGIC, 16, |c| HitRecord {
+        t: f32_at(c, 0),
+        prim: u32::from_le_bytes(c[4..8].try_into().unwrap()),
+        u: f32_at(c, 2),
+        v: f32_at(c, 3),
+    })
 }
 
 /// The kinds of ray sets.
@@ -208,12 +254,74 @@ impl std::str::FromStr for RayKind {
 /// # Errors
 /// Shadow rays of a scene without lights.
 pub fn generate(scene: &Scene, camera: &Camera, width: u32, height: u32, kind: RayKind, seed: u64) -> Result<Vec<RayRecord>> {
+    check_kind(scene, kind)?;
+    Ok(generate_rows(scene, camera, width, height, kind, seed, 0..height))
+}
+
+/// Rays generated at a time by [`write_ray_set`]: about 2^20, whole rows.
+const BAND_RAYS: u32 = 1 << 20;
+
+/// Generate the ray set of [`generate`] and write it to a ray file as it is generated, a
+/// band of rows (about 2^20 rays, 32 MiB) at a time: the memory it takes is bounded by the
+/// band whatever the image size (the file holds 32 bytes per ray: 8 GiB at
+/// [`crate::image::MAX_PIXELS`]). The file is the one [`write_rays`] writes of
+/// [`generate`]'s set, written whole or not at all. Returns the number of rays.
+///
+/// # Errors
+/// Shadow rays of a scene without lights; the file cannot be written (the file that was
+/// there is then left intact).
+pub fn write_ray_set(path: &Path, scene: &Scene, camera: &Camera, width: u32, height: u32, kind: RayKind, seed: u64) -> Result<usize> {
+    write_ray_set_in_bands(path, scene, camera, [width, height], kind, seed, (BAND_RAYS / width.max(1)).max(1))
+}
+
+fn write_ray_set_in_bands(
+    path: &Path,
+    scene: &Scene,
+    camera: &Camera,
+    [width, height]: [u32; 2],
+    kind: RayKind,
+    seed: u64,
+    band: u32,
+) -> Result<usize> {
+    check_kind(scene, kind)?;
+    let mut count = 0;
+    crate::output::write_atomically(path, |w| {
+        // The count of diffuse and shadow rays is known at the end: written then.
+        w.write_all(&header(RAYS_MAGIC, 0))?;
+        let mut b = Vec::with_capacity(32);
+        for y0 in (0..height).step_by(band as usize) {
+            for r in generate_rows(scene, camera, width, height, kind, seed, y0..(y0.saturating_add(band)).min(height)) {
+                b.clear();
+                encode_ray(&r, &mut b);
+                w.write_all(&b)?;
+                count += 1;
+            }
+        }
+        w.seek(std::io::SeekFrom::Start(16))?;
+        w.write_all(&(count as u64).to_le_bytes())
+    })?;
+    Ok(count)
+}
+
+fn check_kind(scene: &Scene, kind: RayKind) -> Result<()> {
     if kind == RayKind::Shadow && scene.lights.is_empty() {
         return Err(Error::Scene("shadow rays need a light, and this scene has none".into()));
     }
-    let rows: Vec<Vec<RayRecord>> = (0..height)
-        .into_par_iter()
-        .map(|y| {
+    Ok(())
+}
+
+/// The rays of the rows `rows` of the set, row by row from the top-left, in parallel.
+fn generate_rows(
+    scene: &Scene,
+    camera: &Camera,
+    width: u32,
+    height: u32,
+    kind: RayKind,
+    seed: u64,
+    rows: std::ops::Range<u32>,
+) -> Vec<RayRecord> {
+    rows.into_par_iter()
+        .flat_map_iter(|y| {
             let mut out = Vec::with_capacity(width as usize);
             for x in 0..width {
                 let primary = camera.generate_ray((x as f32 + 0.5) / width as f32, (y as f32 + 0.5) / height as f32);
@@ -244,8 +352,7 @@ pub fn generate(scene: &Scene, camera: &Camera, width: u32, height: u32, kind: R
             }
             out
         })
-        .collect();
-    Ok(rows.into_iter().flatten().collect())
+        .collect()
 }
 
 #[cfg(test)]
@@ -273,6 +380,60 @@ mod tests {
         let bytes = std::fs::read(&p).unwrap();
         std::fs::write(&p, &bytes[..bytes.len() - 5]).unwrap();
         assert!(read_rays(&p).unwrap_err().to_string().contains("header says 2"));
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn sizes_that_disagree_with_the_header_are_rejected_with_both_numbers() {
+        let dir = std::env::temp_dir().join(format!("isir-rays-size-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join("r.bin");
+        write_hits(&p, &[HitRecord::MISS; 3]).unwrap();
+        let good = std::fs::read(&p).unwrap();
+        assert_eq!(read_hits(&p).unwrap().len(), 3);
+        // Trailing bytes: 3 records of 16 bytes, then 5 more.
+        std::fs::write(&p, [&good[..], &[0u8; 5]].concat()).unwrap();
+        let e = read_hits(&p).unwrap_err().to_string();
+        assert!(e.contains("header says 3 records (48 bytes)") && e.contains("holds 53 bytes") && e.contains("and 5 bytes"), "{e}");
+        // One whole record too many is an error too.
+        std::fs::write(&p, [&good[..], &[0u8; 16]].concat()).unwrap();
+        assert!(read_hits(&p).unwrap_err().to_string().contains("(4 records)"));
+        // A count the file cannot hold: refused before allocating (2^40 records of 16
+        // bytes would abort the process), and a count whose size overflows.
+        for (count, claimed) in [(1u64 << 40, (1u64 << 44).to_string()), (u64::MAX, "more than 2^64".to_string())] {
+            let mut b = good.clone();
+            b[16..24].copy_from_slice(&count.to_le_bytes());
+            std::fs::write(&p, b).unwrap();
+            let e = read_hits(&p).unwrap_err().to_string();
+            assert!(e.contains(&format!("header says {count} records ({claimed} bytes)")) && e.contains("holds 48 bytes"), "{e}");
+        }
+        #[cfg(unix)]
+        assert!(read_rays(Path::new("/dev/zero")).unwrap_err().to_string().contains("not a regular file"));
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn ray_sets_written_in_bands_are_the_generated_sets() {
+        let dir = std::env::temp_dir().join(format!("isir-rays-bands-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let desc = crate::scenes::builtin("tp4-sphere").unwrap();
+        let scene = desc.build(crate::Accel::BvhSah).unwrap();
+        let (w, h) = (23, 17);
+        let camera = desc.camera.build(w as f32 / h as f32);
+        for kind in RayKind::ALL {
+            let whole = dir.join("whole.rays");
+            let set = generate(&scene, &camera, w, h, kind, 3).unwrap();
+            write_rays(&whole, &set).unwrap();
+            for band in [1, 4, 17, 100] {
+                let banded = dir.join("banded.rays");
+                let n = write_ray_set_in_bands(&banded, &scene, &camera, [w, h], kind, 3, band).unwrap();
+                assert_eq!(n, set.len());
+                assert_eq!(std::fs::read(&banded).unwrap(), std::fs::read(&whole).unwrap(), "{kind:?} in bands of {band} rows");
+            }
+            assert_eq!(write_ray_set(&dir.join("default.rays"), &scene, &camera, w, h, kind, 3).unwrap(), set.len());
+        }
+        // Not all pixels see the sphere or the walls: diffuse sets are shorter than primary.
+        assert!(generate(&scene, &camera, w, h, RayKind::Primary, 3).unwrap().len() == (w * h) as usize);
         std::fs::remove_dir_all(&dir).ok();
     }
 }

@@ -78,6 +78,11 @@ impl Renderer {
     }
 
     /// Render, calling `progress(pixels)` each time a tile of `pixels` pixels is done.
+    ///
+    /// The image is the only full-size buffer: it is cut into bands of one row of tiles,
+    /// the bands rendered in parallel, and in each band its tiles in parallel into buffers
+    /// of one tile, copied into the band as they come. So the memory of a render is the
+    /// image's 12 bytes per pixel and a few bands (see [`crate::image::MAX_PIXELS`]).
     pub fn render_with_progress(
         &self,
         scene: &Scene,
@@ -87,35 +92,48 @@ impl Renderer {
     ) -> (Image, RenderStats) {
         let start = Instant::now();
         let (w, h, ts) = (self.width, self.height, self.tile.max(1));
-        let tiles_x = w.div_ceil(ts);
-        let tiles: Vec<(u32, u32)> = (0..h.div_ceil(ts)).flat_map(|ty| (0..tiles_x).map(move |tx| (tx, ty))).collect();
-        let done: Vec<(u32, u32, Vec<Color>, RayCounters)> = tiles
-            .par_iter()
-            .map(|&(tx, ty)| {
-                let (x0, y0) = (tx * ts, ty * ts);
-                let (x1, y1) = ((x0 + ts).min(w), (y0 + ts).min(h));
-                let mut counters = RayCounters::default();
-                let mut pixels = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
-                for y in y0..y1 {
-                    for x in x0..x1 {
-                        pixels.push(self.pixel(scene, camera, integrator, x, y, &mut counters));
-                    }
-                }
-                progress(pixels.len() as u64);
-                (x0, y0, pixels, counters)
-            })
-            .collect();
         let mut image = Image::new(w, h);
-        let mut rays = RayCounters::default();
-        for (x0, y0, pixels, counters) in done {
-            let tw = (x0 + ts).min(w) - x0;
-            for (i, c) in pixels.into_iter().enumerate() {
-                let (x, y) = (x0 + i as u32 % tw, y0 + i as u32 / tw);
-                image.set(x, y, c);
-            }
-            rays.primary += counters.primary;
-            rays.shadow += counters.shadow;
+        if w == 0 || h == 0 {
+            return (image, RenderStats { seconds: start.elapsed().as_secs_f64(), rays: RayCounters::default() });
         }
+        let tiles_x = w.div_ceil(ts);
+        let band_len = ts as usize * w as usize;
+        let rays = image
+            .pixels
+            .par_chunks_mut(band_len)
+            .enumerate()
+            .map(|(ty, band)| {
+                let y0 = ty as u32 * ts;
+                let y1 = (y0 + ts).min(h);
+                (0..tiles_x)
+                    .into_par_iter()
+                    .map(|tx| {
+                        let (x0, x1) = (tx * ts, (tx * ts + ts).min(w));
+                        let mut counters = RayCounters::default();
+                        let mut pixels = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
+                        for y in y0..y1 {
+                            for x in x0..x1 {
+                                pixels.push(self.pixel(scene, camera, integrator, x, y, &mut counters));
+                            }
+                        }
+                        progress(pixels.len() as u64);
+                        (x0, pixels, counters)
+                    })
+                    // Tiles go into the band in any order: each pixel has its own place.
+                    .collect::<Vec<_>>()
+                    .into_iter()
+                    .fold(RayCounters::default(), |mut rays, (x0, pixels, counters)| {
+                        let tw = pixels.len() / (y1 - y0) as usize;
+                        for (row, src) in pixels.chunks_exact(tw).enumerate() {
+                            let i = row * w as usize + x0 as usize;
+                            band[i..i + tw].copy_from_slice(src);
+                        }
+                        rays.primary += counters.primary;
+                        rays.shadow += counters.shadow;
+                        rays
+                    })
+            })
+            .reduce(RayCounters::default, |a, b| RayCounters { primary: a.primary + b.primary, shadow: a.shadow + b.shadow });
         (image, RenderStats { seconds: start.elapsed().as_secs_f64(), rays })
     }
 
@@ -132,5 +150,45 @@ impl Renderer {
             sum += integrator.li(scene, &ray, 0.0, f32::INFINITY, &mut rng, counters);
         }
         sum / self.spp as f32
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::atomic::{AtomicU64, Ordering};
+
+    /// The render in bands is the image of its pixels one by one (each pixel's samples
+    /// seeded by its index), at sizes that are not multiples of the tile, on any pool.
+    #[test]
+    fn bands_of_tiles_give_every_pixel_its_own_samples() {
+        let desc = crate::scenes::builtin("tp4-conference").unwrap();
+        let scene = desc.build(crate::Accel::BvhSah).unwrap();
+        for (w, h, tile) in [(37, 21, 16), (16, 16, 16), (5, 40, 7), (1, 1, 16), (33, 2, 1)] {
+            let r = Renderer { tile, ..Renderer::new(w, h).spp(2).seed(11) };
+            let camera = desc.camera.build(r.aspect());
+            let integrator = Integrator::DirectLighting { light_samples: 2 };
+            let mut expected = Image::new(w, h);
+            let mut rays = RayCounters::default();
+            for y in 0..h {
+                for x in 0..w {
+                    expected.set(x, y, r.pixel(&scene, &camera, &integrator, x, y, &mut rays));
+                }
+            }
+            for threads in [1, 3] {
+                let done = AtomicU64::new(0);
+                let calls = AtomicU64::new(0);
+                let (image, stats) = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap().install(|| {
+                    r.render_with_progress(&scene, &camera, &integrator, &|n| {
+                        done.fetch_add(n, Ordering::Relaxed);
+                        calls.fetch_add(1, Ordering::Relaxed);
+                    })
+                });
+                assert_eq!(image.pixels, expected.pixels, "{w}x{h}, tile {tile}, {threads} threads");
+                assert_eq!(stats.rays, rays);
+                assert_eq!(done.into_inner(), u64::from(w) * u64::from(h), "progress counts every pixel once");
+                assert_eq!(calls.into_inner(), u64::from(w.div_ceil(tile) * h.div_ceil(tile)), "one call per tile");
+            }
+        }
     }
 }
