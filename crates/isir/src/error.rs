@@ -15,6 +15,15 @@ pub enum Error {
         /// Why.
         source: std::io::Error,
     },
+    /// An input file was refused before it was parsed: not a regular file, larger than
+    /// the input limit (see [`crate::input::ReadLimits`]), or of a format isir does not read.
+    #[error("{path}: {message}")]
+    Input {
+        /// The file.
+        path: PathBuf,
+        /// Why it was refused.
+        message: String,
+    },
     /// A mesh file is malformed.
     #[error("{path}{}: {message}", line.map(|l| format!(":{l}")).unwrap_or_default())]
     Mesh {

@@ -24,6 +24,7 @@ pub mod color;
 pub mod error;
 pub mod geometry;
 pub mod image;
+pub mod input;
 pub mod integrator;
 pub mod light;
 pub mod material;

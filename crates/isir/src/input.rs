@@ -1,0 +1,291 @@
+//! Bounded reading of input files (meshes, material libraries, ray files).
+//!
+//! An input file is read whole into memory, so what is read must be bounded by what the
+//! file really holds and by a limit, never by what it claims:
+//!
+//! - Only regular files are read. The kind is checked with `metadata` before the file is
+//!   opened, so a FIFO never blocks and `/dev/zero` or a directory is refused at once
+//!   ("/dev/zero: not a regular file (a character device)").
+//! - A file larger than [`ReadLimits::max_bytes`] is refused before it is read; a `.gz`
+//!   file is decompressed (every member, as parallel gzip tools write them) and stops with
+//!   an error as soon as its decompressed size passes the same limit, so a small gzip bomb
+//!   cannot exhaust memory.
+//! - The limit is 1 GiB by default ([`ReadLimits::DEFAULT_MAX_BYTES`]).
+//!   [`ReadLimits::from_env`] reads a different one from the `ISIR_MAX_INPUT_BYTES`
+//!   environment variable (bytes, or with a `K`, `M`, `G` or `T` suffix, powers of 1024),
+//!   which is what [`crate::obj::load_obj`] uses, so the `isir` command honours it.
+
+use crate::error::{Error, Result};
+use std::io::Read;
+use std::path::Path;
+
+/// How much an input file may hold.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ReadLimits {
+    /// The most bytes a file may hold, after decompression for `.gz` files (and before:
+    /// a compressed file is never larger than what it inflates to, for real inputs).
+    pub max_bytes: u64,
+}
+
+impl ReadLimits {
+    /// The default limit: 1 GiB, ten times the largest course model once decompressed,
+    /// and small enough that a machine with a few GB of memory survives it.
+    pub const DEFAULT_MAX_BYTES: u64 = 1 << 30;
+
+    /// The environment variable read by [`Self::from_env`].
+    pub const ENV_VAR: &'static str = "ISIR_MAX_INPUT_BYTES";
+
+    /// A limit of `max_bytes`.
+    #[must_use]
+    pub fn new(max_bytes: u64) -> Self {
+        Self { max_bytes }
+    }
+
+    /// The limit named by `ISIR_MAX_INPUT_BYTES`, or the default when it is not set.
+    ///
+    /// # Errors
+    /// The variable is set but is not a byte count; the message says so and names it.
+    pub fn from_env() -> std::result::Result<Self, String> {
+        Self::from_env_value(std::env::var_os(Self::ENV_VAR).as_deref())
+    }
+
+    /// The limit for a value of `ISIR_MAX_INPUT_BYTES` (`None`: not set, the default).
+    ///
+    /// # Errors
+    /// As [`Self::from_env`].
+    pub fn from_env_value(value: Option<&std::ffi::OsStr>) -> std::result::Result<Self, String> {
+        match value {
+            None => Ok(Self::default()),
+            Some(v) => {
+                let v = v.to_string_lossy();
+                Self::parse_max_bytes(&v).map(Self::new).map_err(|e| format!("{}='{v}': {e}", Self::ENV_VAR))
+            }
+        }
+    }
+
+    /// Parse a byte count: digits, optionally followed by `K`, `M`, `G` or `T` (powers of
+    /// 1024; `KiB`, `MB`... are accepted too, all binary).
+    ///
+    /// # Errors
+    /// Not such a count, zero, or more than `u64` holds.
+    pub fn parse_max_bytes(s: &str) -> std::result::Result<u64, String> {
+        let s = s.trim();
+        let digits = s.find(|c: char| !c.is_ascii_digit()).unwrap_or(s.len());
+        let (number, unit) = s.split_at(digits);
+        let shift = match unit.trim().to_ascii_uppercase().as_str() {
+            "" | "B" => 0,
+            "K" | "KB" | "KIB" => 10,
+            "M" | "MB" | "MIB" => 20,
+            "G" | "GB" | "GIB" => 30,
+            "T" | "TB" | "TIB" => 40,
+            _ => return Err("expected a number of bytes, optionally with a K, M, G or T suffix (e.g. 4G)".into()),
+        };
+        let n: u64 = number.parse().map_err(|_| "expected a number of bytes, optionally with a K, M, G or T suffix (e.g. 4G)")?;
+        let bytes = n.checked_mul(1 << shift).ok_or("too large")?;
+        if bytes == 0 {
+            return Err("the limit must be at least 1 byte".into());
+        }
+        Ok(bytes)
+    }
+
+    fn too_large(&self, path: &Path, what: String) -> Error {
+        Error::Input {
+            path: path.to_path_buf(),
+            message: format!("{what} more than the input limit of {} (set {} to raise it)", human_bytes(self.max_bytes), Self::ENV_VAR),
+        }
+    }
+}
+
+impl Default for ReadLimits {
+    fn default() -> Self {
+        Self::new(Self::DEFAULT_MAX_BYTES)
+    }
+}
+
+/// `n` bytes, in the largest binary unit that divides it (`1 GiB`, `1536 KiB`, `1000 bytes`).
+fn human_bytes(n: u64) -> String {
+    for (shift, unit) in [(40, "TiB"), (30, "GiB"), (20, "MiB"), (10, "KiB")] {
+        if n >= 1 << shift && n.is_multiple_of(1 << shift) {
+            return format!("{} {unit}", n >> shift);
+        }
+    }
+    format!("{n} bytes")
+}
+
+/// What a non-regular file is, for the message that refuses it.
+fn file_kind(t: std::fs::FileType) -> &'static str {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        if t.is_fifo() {
+            return "a FIFO";
+        }
+        if t.is_char_device() {
+            return "a character device";
+        }
+        if t.is_block_device() {
+            return "a block device";
+        }
+        if t.is_socket() {
+            return "a socket";
+        }
+    }
+    if t.is_dir() {
+        "a directory"
+    } else {
+        "not a file"
+    }
+}
+
+/// Read a regular file whole, decompressing it when its name ends in `.gz`, within `limits`.
+///
+/// # Errors
+/// [`Error::Input`] when the file is not a regular file or holds (or inflates to) more
+/// than the limit; [`Error::Io`] when it cannot be read or is not valid gzip. Both name
+/// the file.
+pub fn read_file(path: &Path, limits: &ReadLimits) -> Result<Vec<u8>> {
+    let io = |source| Error::Io { path: path.to_path_buf(), source };
+    // metadata, not open: opening a FIFO blocks until someone writes to it.
+    let meta = std::fs::metadata(path).map_err(io)?;
+    if !meta.is_file() {
+        return Err(Error::Input { path: path.to_path_buf(), message: format!("not a regular file ({})", file_kind(meta.file_type())) });
+    }
+    if meta.len() > limits.max_bytes {
+        return Err(limits.too_large(path, format!("{} bytes,", meta.len())));
+    }
+    let file = std::fs::File::open(path).map_err(io)?;
+    // The path may have been replaced since `metadata`: whatever it is now, at most
+    // `max_bytes + 1` bytes are read from it.
+    let bounded = file.take(limits.max_bytes.saturating_add(1));
+    if path.extension().is_some_and(|e| e == "gz") {
+        let decoder = flate2::read::MultiGzDecoder::new(std::io::BufReader::new(bounded));
+        read_bounded(path, decoder, inflated_guess(meta.len()), limits, "decompresses to")
+    } else {
+        // The size the file system gives for a regular file is what the file holds (and
+        // it is within the limit): a good first capacity.
+        read_bounded(path, bounded, meta.len(), limits, "holds")
+    }
+}
+
+/// Decompress gzip bytes (every member) within `limits`; `name` names them in messages.
+///
+/// # Errors
+/// Not valid gzip, or more than the limit once decompressed.
+pub fn gunzip(name: &Path, raw: &[u8], limits: &ReadLimits) -> Result<Vec<u8>> {
+    read_bounded(name, flate2::read::MultiGzDecoder::new(raw), inflated_guess(raw.len() as u64), limits, "decompresses to")
+}
+
+/// A first capacity for what `compressed` bytes of gzip inflate to: four times as much
+/// (text meshes compress about 4:1). It comes from the bytes really there, not from the
+/// size the gzip trailer claims, and the buffer grows from it only as data arrives.
+fn inflated_guess(compressed: u64) -> u64 {
+    compressed.saturating_mul(4)
+}
+
+/// Read `reader` to its end, or stop with an error once it yields more than the limit.
+/// The buffer grows with what is really read (`capacity` only when it is known true).
+fn read_bounded(path: &Path, reader: impl Read, capacity: u64, limits: &ReadLimits, what: &str) -> Result<Vec<u8>> {
+    let mut out = Vec::with_capacity(usize::try_from(capacity.min(limits.max_bytes)).unwrap_or(0));
+    reader
+        .take(limits.max_bytes.saturating_add(1))
+        .read_to_end(&mut out)
+        .map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
+    if out.len() as u64 > limits.max_bytes {
+        return Err(limits.too_large(path, what.to_string()));
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::io::Write;
+
+    fn tmp(name: &str) -> std::path::PathBuf {
+        let dir = std::env::temp_dir().join(format!("isir-input-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        dir.join(name)
+    }
+
+    fn gz(data: &[u8]) -> Vec<u8> {
+        let mut e = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
+        e.write_all(data).unwrap();
+        e.finish().unwrap()
+    }
+
+    #[test]
+    fn devices_and_directories_are_refused_without_reading() {
+        let t = std::time::Instant::now();
+        let e = read_file(Path::new("/dev/zero"), &ReadLimits::default()).unwrap_err().to_string();
+        assert_eq!(e, "/dev/zero: not a regular file (a character device)");
+        let e = read_file(&std::env::temp_dir(), &ReadLimits::default()).unwrap_err().to_string();
+        assert!(e.ends_with("not a regular file (a directory)"), "{e}");
+        assert!(t.elapsed().as_secs() < 2, "refused at once");
+    }
+
+    #[test]
+    fn a_fifo_is_refused_without_blocking() {
+        let p = tmp("fifo");
+        let _ = std::fs::remove_file(&p);
+        let made = std::process::Command::new("mkfifo").arg(&p).status().expect("mkfifo runs");
+        assert!(made.success());
+        let (tx, rx) = std::sync::mpsc::channel();
+        let q = p.clone();
+        // Opening a FIFO blocks until a writer comes: read in a thread so a regression
+        // fails this test instead of hanging the suite.
+        std::thread::spawn(move || tx.send(read_file(&q, &ReadLimits::default()).map_err(|e| e.to_string())));
+        let e = rx.recv_timeout(std::time::Duration::from_secs(5)).expect("read_file returns").unwrap_err();
+        assert!(e.ends_with("fifo: not a regular file (a FIFO)"), "{e}");
+    }
+
+    #[test]
+    fn files_over_the_limit_are_refused() {
+        let p = tmp("big.txt");
+        std::fs::write(&p, vec![b'x'; 3000]).unwrap();
+        assert_eq!(read_file(&p, &ReadLimits::new(3000)).unwrap().len(), 3000);
+        let e = read_file(&p, &ReadLimits::new(2048)).unwrap_err().to_string();
+        assert!(e.contains("big.txt: 3000 bytes, more than the input limit of 2 KiB") && e.contains("ISIR_MAX_INPUT_BYTES"), "{e}");
+    }
+
+    #[test]
+    fn gzip_bombs_stop_at_the_limit() {
+        // 16 MiB of zeros in about 16 KiB: inflating stops just past the 1 MiB limit.
+        let bomb = gz(&vec![0u8; 16 << 20]);
+        assert!(bomb.len() < 100_000);
+        let p = tmp("bomb.obj.gz");
+        std::fs::write(&p, &bomb).unwrap();
+        let e = read_file(&p, &ReadLimits::new(1 << 20)).unwrap_err().to_string();
+        assert!(e.contains("bomb.obj.gz: decompresses to more than the input limit of 1 MiB"), "{e}");
+        let e = gunzip(Path::new("m.gz"), &bomb, &ReadLimits::new(1 << 20)).unwrap_err().to_string();
+        assert!(e.starts_with("m.gz: decompresses to more than"), "{e}");
+        assert_eq!(read_file(&p, &ReadLimits::new(16 << 20)).unwrap().len(), 16 << 20);
+    }
+
+    #[test]
+    fn every_gzip_member_is_read() {
+        let mut two = gz(b"first member\n");
+        two.extend(gz(b"second member\n"));
+        let p = tmp("two.txt.gz");
+        std::fs::write(&p, &two).unwrap();
+        assert_eq!(read_file(&p, &ReadLimits::default()).unwrap(), b"first member\nsecond member\n");
+        // A damaged or cut stream is an error, not a silently shorter file.
+        std::fs::write(&p, &two[..two.len() - 5]).unwrap();
+        assert!(read_file(&p, &ReadLimits::default()).unwrap_err().to_string().contains("two.txt.gz"));
+    }
+
+    #[test]
+    fn limits_parse_with_units_and_refuse_nonsense() {
+        assert_eq!(ReadLimits::parse_max_bytes("1000"), Ok(1000));
+        assert_eq!(ReadLimits::parse_max_bytes("4G"), Ok(4 << 30));
+        assert_eq!(ReadLimits::parse_max_bytes("512 MiB"), Ok(512 << 20));
+        for bad in ["", "abc", "0", "-5", "1.5G", "4X", "99999999999T"] {
+            assert!(ReadLimits::parse_max_bytes(bad).is_err(), "{bad}");
+        }
+        assert_eq!(ReadLimits::from_env_value(None), Ok(ReadLimits::new(1 << 30)));
+        assert_eq!(ReadLimits::from_env_value(Some("2M".as_ref())), Ok(ReadLimits::new(2 << 20)));
+        let e = ReadLimits::from_env_value(Some("lots".as_ref())).unwrap_err();
+        assert!(e.starts_with("ISIR_MAX_INPUT_BYTES='lots': expected a number of bytes"), "{e}");
+        assert_eq!(human_bytes(1 << 30), "1 GiB");
+        assert_eq!(human_bytes(1000), "1000 bytes");
+    }
+}
