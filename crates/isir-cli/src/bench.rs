@@ -1,6 +1,7 @@
 //! `isir bench`: build, generate the three ray sets of a scene, trace them, and print one
-//! table; with `embree-bench` (../shared/tools/embree-bench) found, run it on the same
-//! files in the same run and print the ratio isir / Embree and the hit agreement.
+//! table; with `embree-bench` (Embree 3, tools/embree3-bench) and/or `embree4-bench`
+//! (Embree 4, tools/embree4-bench) found, run each on the same files in the same run and
+//! print, one table per engine, the ratio isir / Embree and the hit agreement.
 
 use crate::trace::{build_timed, trace_timed, Mode, TraceFigures};
 use crate::{threads_phrase, warn_all, with_threads};
@@ -17,11 +18,15 @@ use std::process::Command;
 pub struct BenchArgs {
     /// A built-in scene (default tp4-conference) or an OBJ file.
     pub target: Option<String>,
-    /// The embree-bench binary (default: `embree-bench` on PATH, then
-    /// ~/.cache/isir/embree-bench where its build.sh puts it).
+    /// The Embree 3 tool (default: `embree3-bench` or `embree-bench` on PATH, then in
+    /// ~/.cache/isir/, where tools/embree3-bench/build.sh puts it).
     #[arg(long)]
     pub embree: Option<PathBuf>,
-    /// Do not run Embree even when it is found.
+    /// The Embree 4 tool (default: `embree4-bench` on PATH, then ~/.cache/isir/embree4-bench,
+    /// where tools/embree4-bench/build.sh puts it).
+    #[arg(long)]
+    pub embree4: Option<PathBuf>,
+    /// Do not run Embree (3 or 4) even when it is found.
     #[arg(long)]
     pub no_embree: bool,
     /// Embree build quality.
@@ -51,13 +56,21 @@ pub struct BenchArgs {
     pub rounds: u32,
 }
 
-/// One round of measurements: isir's build and traces, then Embree's on the same files.
+/// One round of measurements: isir's build and traces, then each engine's on the same files.
 struct Round {
     build_ms: f64,
     /// Closest/occluded traces of the three sets, then the packets.
     ours: Vec<TraceFigures>,
-    /// Embree's figures on the three sets, then its stream mode (empty without Embree).
-    theirs: Vec<HashMap<String, String>>,
+    /// Per engine found: its figures on the three sets, then its stream mode.
+    theirs: Vec<Vec<HashMap<String, String>>>,
+}
+
+/// An Embree comparison tool that was found.
+struct Engine {
+    /// Its column in the table and the tag of its hit files: `embree` (Embree 3, the name
+    /// the table has always had) or `embree4`.
+    label: &'static str,
+    bin: PathBuf,
 }
 
 /// The median of `v` (NaN when empty).
@@ -75,26 +88,47 @@ fn median(mut v: Vec<f64>) -> f64 {
     }
 }
 
-fn find_embree(explicit: &Option<PathBuf>) -> Option<PathBuf> {
+/// The comparison tool: `explicit` (which must exist), else the first of `names` on PATH,
+/// else the first in the cache folder its build.sh installs to (`$XDG_CACHE_HOME/isir` or
+/// `~/.cache/isir`).
+fn find_tool(explicit: &Option<PathBuf>, option: &str, names: &[&str]) -> anyhow::Result<Option<PathBuf>> {
     if let Some(p) = explicit {
-        return Some(p.clone());
+        // Said now, not after minutes of isir's own measurements.
+        anyhow::ensure!(p.is_file(), "{option} {}: no such file", p.display());
+        return Ok(Some(p.clone()));
     }
     if let Ok(path) = std::env::var("PATH") {
         for dir in std::env::split_paths(&path) {
-            let p = dir.join("embree-bench");
-            if p.is_file() {
-                return Some(p);
+            if let Some(p) = names.iter().map(|n| dir.join(n)).find(|p| p.is_file()) {
+                return Ok(Some(p));
             }
         }
     }
-    let home = std::env::var_os("XDG_CACHE_HOME")
-        .map(PathBuf::from)
-        .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache")))?;
-    let p = home.join("isir").join("embree-bench");
-    p.is_file().then_some(p)
+    let Some(cache) =
+        std::env::var_os("XDG_CACHE_HOME").map(PathBuf::from).or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache")))
+    else {
+        return Ok(None);
+    };
+    Ok(names.iter().map(|n| cache.join("isir").join(n)).find(|p| p.is_file()))
 }
 
-/// Run embree-bench and read its `key: value` lines.
+/// The engines to compare with: Embree 3 (under its tool's new name, or the old
+/// `embree-bench`), then Embree 4.
+fn find_engines(a: &BenchArgs) -> anyhow::Result<Vec<Engine>> {
+    if a.no_embree {
+        return Ok(Vec::new());
+    }
+    let mut engines = Vec::new();
+    if let Some(bin) = find_tool(&a.embree, "--embree", &["embree3-bench", "embree-bench"])? {
+        engines.push(Engine { label: "embree", bin });
+    }
+    if let Some(bin) = find_tool(&a.embree4, "--embree4", &["embree4-bench"])? {
+        engines.push(Engine { label: "embree4", bin });
+    }
+    Ok(engines)
+}
+
+/// Run an Embree tool (tools/README.md) and read its `key: value` lines.
 fn run_embree(
     bin: &Path,
     [mesh, rays, hits]: [&Path; 3],
@@ -135,6 +169,7 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
 
 fn run_in_pool(a: &BenchArgs) -> anyhow::Result<()> {
     isir::image::check_size(a.width, a.height)?;
+    let engines = find_engines(a)?;
     let name = a.target.clone().unwrap_or_else(|| "tp4-conference".to_string());
     let (desc, scene) = crate::render::build_scene(&name, Accel::BvhSah, isir::triangle::TriangleTest::MollerTrumbore)?;
     warn_all(&scene.warnings);
@@ -148,7 +183,7 @@ fn run_in_pool(a: &BenchArgs) -> anyhow::Result<()> {
         .with_context(|| format!("{name}: the scene has no mesh to benchmark"))?;
     let dir = a.keep.clone().unwrap_or_else(|| std::env::temp_dir().join(format!("isir-bench-{}", std::process::id())));
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
-    let result = bench_in(a, &name, &desc, &scene, source, &dir);
+    let result = bench_in(a, &name, &desc, &scene, source, &dir, &engines);
     if a.keep.is_none() {
         std::fs::remove_dir_all(&dir).ok(); // on failure too
     } else {
@@ -158,7 +193,15 @@ fn run_in_pool(a: &BenchArgs) -> anyhow::Result<()> {
 }
 
 /// The benchmark proper, writing its files in `dir`.
-fn bench_in(a: &BenchArgs, name: &str, desc: &SceneDescription, scene: &Scene, source: MeshSource, dir: &Path) -> anyhow::Result<()> {
+fn bench_in(
+    a: &BenchArgs,
+    name: &str,
+    desc: &SceneDescription,
+    scene: &Scene,
+    source: MeshSource,
+    dir: &Path,
+    engines: &[Engine],
+) -> anyhow::Result<()> {
     // ---- The scene's mesh is the one traced; the three ray sets ----
     let mut mesh = scene.meshes().next().map(|(_, m)| m.clone()).with_context(|| format!("{name}: the scene has no mesh"))?;
     let camera = desc.camera.build(a.width as f32 / a.height as f32);
@@ -185,7 +228,6 @@ fn bench_in(a: &BenchArgs, name: &str, desc: &SceneDescription, scene: &Scene, s
         }
         MeshSource::File(path) => path.clone(),
     };
-    let embree = if a.no_embree { None } else { find_embree(&a.embree) };
     let threads = rayon::current_num_threads();
 
     let mut rounds: Vec<Round> = Vec::new();
@@ -206,15 +248,17 @@ fn bench_in(a: &BenchArgs, name: &str, desc: &SceneDescription, scene: &Scene, s
             last.ours.iter_mut().for_each(|f| f.hit_records = Vec::new());
         }
 
-        // ---- Embree, on the same files ----
+        // ---- Each engine, on the same files ----
         let mut theirs = Vec::new();
-        if let Some(bin) = &embree {
+        for e in engines {
+            let mut figures = Vec::new();
             for (label, kind, _, path) in &sets {
-                let hits = dir.join(format!("{label}.embree.hits"));
-                theirs.push(run_embree(bin, [&obj_path, path, &hits], *kind == RayKind::Shadow, "single", a, threads)?);
+                let hits = dir.join(format!("{label}.{}.hits", e.label));
+                figures.push(run_embree(&e.bin, [&obj_path, path, &hits], *kind == RayKind::Shadow, "single", a, threads)?);
             }
-            let hits = dir.join("primary.embree-stream.hits");
-            theirs.push(run_embree(bin, [&obj_path, &sets[0].3, &hits], false, "stream", a, threads)?);
+            let hits = dir.join(format!("primary.{}-stream.hits", e.label));
+            figures.push(run_embree(&e.bin, [&obj_path, &sets[0].3, &hits], false, "stream", a, threads)?);
+            theirs.push(figures);
         }
         rounds.push(Round { build_ms: b.build_ms, ours, theirs });
         build = Some(b);
@@ -231,14 +275,56 @@ fn bench_in(a: &BenchArgs, name: &str, desc: &SceneDescription, scene: &Scene, s
         a.height,
         threads_phrase(threads),
         build.simd,
-        embree
-            .as_ref()
-            .map(|b| format!(", embree-bench {} (quality {})", b.display(), a.embree_quality))
-            .unwrap_or_else(|| ", embree-bench not found".into()),
+        engine_summary(engines, &a.embree_quality),
         if a.rounds > 1 { format!(", medians of {} rounds", a.rounds) } else { String::new() }
     );
-    println!("{:<28} {:>12} {:>12} {:>20} {:>14}", "figure", "isir", "embree", "isir/embree", "hits agree");
-    // One row from per-round figures: isir's, Embree's (NaN when not run), the ratio of
+    // One table per engine (the first, Embree 3's, as it has always been); without any, one
+    // table of isir's figures alone.
+    if engines.is_empty() {
+        print_table(&rounds, &sets, build.stats.triangles, None, dir)?;
+    }
+    for (i, e) in engines.iter().enumerate() {
+        if i > 0 {
+            println!();
+        }
+        print_table(&rounds, &sets, build.stats.triangles, Some((i, e)), dir)?;
+    }
+    println!(
+        "sah_cost: {:.3}  nodes: {}  bytes_per_triangle: {:.1}",
+        build.stats.sah_cost, build.stats.nodes, build.stats.bytes_per_triangle
+    );
+    for (i, (label, _, set, _)) in sets.iter().enumerate() {
+        if let Some((n, t)) = last.ours[i].visits {
+            println!("{label}: {} rays, {} hits, {n:.2} node visits and {t:.2} triangle tests per ray", set.len(), last.ours[i].hits);
+        }
+    }
+    Ok(())
+}
+
+/// The header's words on the engines: Embree 3's as they have always been, then Embree 4's
+/// when found.
+fn engine_summary(engines: &[Engine], quality: &str) -> String {
+    let found = |label: &str| engines.iter().find(|e| e.label == label).map(|e| e.bin.display().to_string());
+    let mut s = match found("embree") {
+        Some(bin) => format!(", embree-bench {bin} (quality {quality})"),
+        None => ", embree-bench not found".to_string(),
+    };
+    if let Some(bin) = found("embree4") {
+        s += &format!(", embree4-bench {bin} (quality {quality})");
+    }
+    s
+}
+
+/// The ray sets as `bench_in` keeps them: label, kind, rays, file.
+type RaySet = (&'static str, RayKind, Vec<isir::rays::RayRecord>, PathBuf);
+
+/// One table: isir's figures, and with `engine` (its index in each round's figures) that
+/// engine's, the per-round ratios and the hit agreement of the last round.
+fn print_table(rounds: &[Round], sets: &[RaySet], triangles: usize, engine: Option<(usize, &Engine)>, dir: &Path) -> anyhow::Result<()> {
+    let label = engine.map_or("embree", |(_, e)| e.label);
+    let last = rounds.last().expect("at least one round");
+    println!("{:<28} {:>12} {:>12} {:>20} {:>14}", "figure", "isir", label, format!("isir/{label}"), "hits agree");
+    // One row from per-round figures: isir's, the engine's (NaN when not run), the ratio of
     // each round (inverted for times), and the hit agreement.
     let cell = |x: f64| if x.is_finite() { format!("{x:.2}") } else { "-".to_string() };
     let row = |label: &str, ours: &[f64], theirs: &[f64], ratio_of: Option<fn(f64, f64) -> f64>, agree: &str| {
@@ -260,32 +346,29 @@ fn bench_in(a: &BenchArgs, name: &str, desc: &SceneDescription, scene: &Scene, s
         let theirs = rays::read_hits(&dir.join(file))?;
         Ok(format!("{:.4}%", 100.0 * compare_hits(ours, &theirs, 1e-4).fraction()))
     };
+    // The engine's figures of each round (NaN without an engine).
+    let theirs = |i: usize, key: &str| -> Vec<f64> {
+        rounds.iter().map(|r| engine.and_then(|(e, _)| r.theirs[e].get(i)).map_or(f64::NAN, |m| num(m, key))).collect()
+    };
     let speed = |o: f64, t: f64| o / t;
-    let triangles = build.stats.triangles as f64;
+    let triangles = triangles as f64;
     let our_build: Vec<f64> = rounds.iter().map(|r| r.build_ms).collect();
-    let their_build: Vec<f64> = rounds.iter().map(|r| r.theirs.iter().map(|m| num(m, "build_ms")).fold(f64::NAN, f64::min)).collect();
+    // The engine's build: the fastest of its runs in the round (each run builds).
+    let their_build: Vec<f64> =
+        (0..rounds.len()).map(|round| (0..=sets.len()).map(|i| theirs(i, "build_ms")[round]).fold(f64::NAN, f64::min)).collect();
     let mtris = |ms: &[f64]| ms.iter().map(|&t| triangles / (t * 1e-3) * 1e-6).collect::<Vec<_>>();
     row("build (Mtris/s)", &mtris(&our_build), &mtris(&their_build), Some(speed), "");
     row("build (ms)", &our_build, &their_build, None, "");
-    let their_speed = |i: usize| rounds.iter().map(|r| r.theirs.get(i).map_or(f64::NAN, |m| num(m, "mrays_per_s"))).collect::<Vec<_>>();
     let our_speed = |i: usize| rounds.iter().map(|r| r.ours[i].mrays_per_s()).collect::<Vec<_>>();
-    for (i, (label, kind, _, _)) in sets.iter().enumerate() {
+    for (i, (set, kind, _, _)) in sets.iter().enumerate() {
         let q = if *kind == RayKind::Shadow { "occluded" } else { "closest" };
-        let agree = if embree.is_some() { agreement(&format!("{label}.embree.hits"), &last.ours[i].hit_records)? } else { "-".to_string() };
-        row(&format!("{label} {q} (Mrays/s)"), &our_speed(i), &their_speed(i), Some(speed), &agree);
+        let agree = if engine.is_some() { agreement(&format!("{set}.{label}.hits"), &last.ours[i].hit_records)? } else { "-".to_string() };
+        row(&format!("{set} {q} (Mrays/s)"), &our_speed(i), &theirs(i, "mrays_per_s"), Some(speed), &agree);
     }
     // isir's packets of 16 against Embree's stream of 256 (its best mode on these rays).
     let p = sets.len();
-    let agree = if embree.is_some() { agreement("primary.embree-stream.hits", &last.ours[p].hit_records)? } else { "-".to_string() };
-    row("primary packets/stream", &our_speed(p), &their_speed(p), Some(speed), &agree);
-    println!(
-        "sah_cost: {:.3}  nodes: {}  bytes_per_triangle: {:.1}",
-        build.stats.sah_cost, build.stats.nodes, build.stats.bytes_per_triangle
-    );
-    for (i, (label, _, set, _)) in sets.iter().enumerate() {
-        if let Some((n, t)) = last.ours[i].visits {
-            println!("{label}: {} rays, {} hits, {n:.2} node visits and {t:.2} triangle tests per ray", set.len(), last.ours[i].hits);
-        }
-    }
+    let agree =
+        if engine.is_some() { agreement(&format!("primary.{label}-stream.hits"), &last.ours[p].hit_records)? } else { "-".to_string() };
+    row("primary packets/stream", &our_speed(p), &theirs(p, "mrays_per_s"), Some(speed), &agree);
     Ok(())
 }

@@ -349,3 +349,157 @@ fn ray_files_whose_size_disagrees_with_the_header_are_rejected() {
     one_line_error(code, &err, "claims.rays");
     assert!(err.contains(&(1u64 << 40).to_string()) && err.contains("256"), "{err}");
 }
+
+// ---- `isir bench` with Embree 3 and Embree 4 (tools/), by stand-ins: CI has no Embree ----
+
+/// A stand-in for tools/embree3-bench or tools/embree4-bench: isir's own `trace` on the files
+/// `isir bench` passes, so that its hits agree exactly. It accepts exactly the command line
+/// the real tools take from bench (anything else exits 2) and logs it to `<script>.log`.
+#[cfg(unix)]
+fn fake_embree(path: &std::path::Path) {
+    use std::os::unix::fs::PermissionsExt;
+    let script = format!(
+        r#"#!/bin/sh
+echo "$@" >> "$0.log"
+mesh=$1; rays=$2; shift 2
+hits=""; occluded=""; repeat=""; threads=""
+while [ $# -gt 0 ]; do
+  case $1 in
+    --hits) hits=$2; shift 2;;
+    --repeat) repeat=$2; shift 2;;
+    --threads) threads=$2; shift 2;;
+    --occluded) occluded=--occluded; shift;;
+    --quality) [ "$2" = medium ] || exit 2; shift 2;;
+    --mode) [ "$2" = single ] || [ "$2" = stream ] || exit 2; shift 2;;
+    *) echo "unexpected argument $1" >&2; exit 2;;
+  esac
+done
+exec '{}' trace "$mesh" "$rays" --hits "$hits" --repeat "$repeat" --threads "$threads" $occluded 2>/dev/null
+"#,
+        env!("CARGO_BIN_EXE_isir")
+    );
+    std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+    std::fs::write(path, script).unwrap();
+    std::fs::set_permissions(path, std::fs::Permissions::from_mode(0o755)).unwrap();
+    std::fs::remove_file(path.with_extension("log")).ok();
+}
+
+/// An empty folder for a test's cache (target/tmp outlives test runs: no leftovers).
+#[cfg(unix)]
+fn fresh_dir(name: &str) -> std::path::PathBuf {
+    let d = tmp(name);
+    std::fs::remove_dir_all(&d).ok();
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// `isir bench` on a small scene with `cache` as the cache folder and a PATH without any
+/// Embree tool, so that only the stand-ins given are found.
+#[cfg(unix)]
+fn bench_with_cache(cache: &std::path::Path, extra: &[&str]) -> (i32, String, String) {
+    let args = ["bench", "tp4-sphere", "--width", "24", "--height", "16", "--repeat", "1", "--threads", "1"];
+    let out = Command::new(env!("CARGO_BIN_EXE_isir"))
+        .args(args.iter().chain(extra))
+        .current_dir(env!("CARGO_TARGET_TMPDIR"))
+        .env("XDG_CACHE_HOME", cache)
+        .env("PATH", "/usr/bin:/bin")
+        .output()
+        .unwrap();
+    (out.status.code().unwrap_or(-1), String::from_utf8_lossy(&out.stdout).into(), String::from_utf8_lossy(&out.stderr).into())
+}
+
+/// The tables of a bench output: each from its `figure` header to the next blank line.
+#[cfg(unix)]
+fn bench_tables(out: &str) -> Vec<Vec<&str>> {
+    let lines: Vec<&str> = out.lines().collect();
+    let starts = lines.iter().enumerate().filter(|(_, l)| l.starts_with("figure")).map(|(i, _)| i);
+    starts.map(|i| lines[i..].iter().take_while(|l| !l.is_empty() && !l.starts_with("sah_cost")).copied().collect()).collect()
+}
+
+#[cfg(unix)]
+#[test]
+fn bench_compares_with_embree_3_and_embree_4_found_in_the_cache() {
+    let cache = fresh_dir("bench-cache-both");
+    // Embree 3 under the old name `embree-bench` (installs from before tools/ still work).
+    let e3 = cache.join("isir").join("embree-bench");
+    let e4 = cache.join("isir").join("embree4-bench");
+    fake_embree(&e3);
+    fake_embree(&e4);
+    let (code, out, err) = bench_with_cache(&cache, &[]);
+    assert_eq!(code, 0, "{err}");
+    let header = out.lines().next().unwrap();
+    assert!(header.contains(&format!("embree-bench {} (quality medium)", e3.display())), "{header}");
+    assert!(header.contains(&format!("embree4-bench {} (quality medium)", e4.display())), "{header}");
+    let tables = bench_tables(&out);
+    assert_eq!(tables.len(), 2, "{out}");
+    for (table, label) in tables.iter().zip(["embree", "embree4"]) {
+        let head: Vec<&str> = table[0].split_whitespace().collect();
+        assert_eq!(head, ["figure", "isir", label, &format!("isir/{label}"), "hits", "agree"], "{out}");
+        for row in ["build (Mtris/s)", "primary closest", "diffuse closest", "shadow occluded", "primary packets/stream"] {
+            let line = table.iter().find(|l| l.starts_with(row)).unwrap_or_else(|| panic!("no '{row}' row in:\n{out}"));
+            // isir, the engine and the ratio are all figures (the engine's parsed from its output).
+            let figures: Vec<f64> = line[row.len()..].split_whitespace().filter_map(|w| w.parse().ok()).collect();
+            assert!(figures.len() == 3 && figures.iter().all(|f| f.is_finite() && *f > 0.0), "'{row}' in:\n{out}");
+            if row != "build (Mtris/s)" {
+                assert!(line.ends_with("100.0000%"), "the stand-in is isir itself, its hits must all agree: {line}");
+            }
+        }
+    }
+    // Each tool got exactly what the real ones take: three single-ray sets (shadow rays
+    // occluded), then the primary rays in stream mode, with the hit files named per engine.
+    for (tool, tag) in [(&e3, "embree"), (&e4, "embree4")] {
+        let log = std::fs::read_to_string(tool.with_extension("log")).unwrap();
+        let calls: Vec<&str> = log.lines().collect();
+        assert_eq!(calls.len(), 4, "{log}");
+        for (call, (set, tail)) in calls.iter().zip([
+            ("primary", format!("primary.{tag}.hits --quality medium --repeat 1 --threads 1 --mode single")),
+            ("diffuse", format!("diffuse.{tag}.hits --quality medium --repeat 1 --threads 1 --mode single")),
+            ("shadow", format!("shadow.{tag}.hits --quality medium --repeat 1 --threads 1 --mode single --occluded")),
+            ("primary", format!("primary.{tag}-stream.hits --quality medium --repeat 1 --threads 1 --mode stream")),
+        ]) {
+            let words: Vec<&str> = call.split_whitespace().collect();
+            assert!(words[0].ends_with("uvsphere.obj") && words[1].ends_with(&format!("{set}.rays")) && words[2] == "--hits", "{call}");
+            assert!(call.ends_with(&tail), "expected '... {tail}', got: {call}");
+        }
+    }
+}
+
+#[cfg(unix)]
+#[test]
+fn bench_with_embree_3_alone_prints_its_one_table_and_no_embree_runs_none() {
+    let cache = fresh_dir("bench-cache-none");
+    let e3 = tmp("bench-explicit/embree3-bench");
+    fake_embree(&e3);
+    let (code, out, err) = bench_with_cache(&cache, &["--embree", e3.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    assert!(!out.contains("embree4"), "{out}");
+    let tables = bench_tables(&out);
+    assert_eq!(tables.len(), 1, "{out}");
+    assert_eq!(tables[0][0], format!("{:<28} {:>12} {:>12} {:>20} {:>14}", "figure", "isir", "embree", "isir/embree", "hits agree"));
+    assert!(tables[0].iter().filter(|l| l.ends_with("100.0000%")).count() == 4, "{out}");
+    // --no-embree: a tool in the cache is not even started.
+    let e4 = cache.join("isir").join("embree4-bench");
+    fake_embree(&e4);
+    let (code, out, err) = bench_with_cache(&cache, &["--no-embree"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("embree-bench not found") && !out.contains("embree4"), "{out}");
+    assert!(!e4.with_extension("log").exists(), "embree4-bench ran despite --no-embree");
+}
+
+#[cfg(unix)]
+#[test]
+fn bench_names_a_missing_or_failing_embree_tool() {
+    let cache = fresh_dir("bench-cache-failing");
+    // A missing tool is named before any work, by its option.
+    let (code, _, err) = bench_with_cache(&cache, &["--embree4", "/nonexistent/embree4-bench"]);
+    one_line_error(code, &err, "--embree4 /nonexistent/embree4-bench: no such file");
+    let (code, _, err) = bench_with_cache(&cache, &["--embree", "/nonexistent/embree-bench"]);
+    one_line_error(code, &err, "--embree /nonexistent/embree-bench: no such file");
+    // A tool that fails: its message, and its name.
+    let broken = tmp("bench-broken/embree4-bench");
+    fake_embree(&broken);
+    std::fs::write(&broken, "#!/bin/sh\necho 'cannot open mesh' >&2\nexit 1\n").unwrap();
+    let (code, _, err) = bench_with_cache(&cache, &["--embree4", broken.to_str().unwrap()]);
+    one_line_error(code, &err, "cannot open mesh");
+    assert!(err.contains(broken.to_str().unwrap()), "{err}");
+}

@@ -1,0 +1,220 @@
+/* embree4-bench: trace a ray file (docs/RAYS.md) against the triangles of an OBJ file with
+ * Embree 4 (the 4.4.0 release library), as `isir bench` asks, and print the figures as
+ * "key: value" lines.  See tools/README.md; the command line, OBJ reader and files are in
+ * ../common, Embree's headers in include/embree4 (see NOTICE). */
+#include <embree4/rtcore.h>
+#include <math.h>
+#include <omp.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "../common/bench_common.h"
+
+static void on_error(void *user, enum RTCError code, const char *message) {
+    (void)user;
+    fail("Embree error %d: %s", (int)code, message ? message : "(no message)");
+}
+
+static enum RTCBuildQuality rtc_quality(Quality q) {
+    return q == QUALITY_LOW ? RTC_BUILD_QUALITY_LOW : q == QUALITY_MEDIUM ? RTC_BUILD_QUALITY_MEDIUM : RTC_BUILD_QUALITY_HIGH;
+}
+
+/* A new scene holding the triangles, built (committed). */
+static RTCScene build(RTCDevice device, const Mesh *m, Quality quality) {
+    RTCScene scene = rtcNewScene(device);
+    rtcSetSceneBuildQuality(scene, rtc_quality(quality));
+    RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
+    rtcSetGeometryBuildQuality(g, rtc_quality(quality));
+    rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, m->vertices, 0, 3 * sizeof(float), m->vertex_count);
+    rtcSetSharedGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, m->indices, 0, 3 * sizeof(uint32_t), m->triangle_count);
+    rtcCommitGeometry(g);
+    rtcAttachGeometry(scene, g);
+    rtcReleaseGeometry(g);
+    rtcCommitScene(scene);
+    return scene;
+}
+
+static struct RTCRay to_rtc(const RayRecord *r) {
+    return (struct RTCRay){.org_x = r->ox, .org_y = r->oy, .org_z = r->oz, .tnear = r->tmin,
+                           .dir_x = r->dx, .dir_y = r->dy, .dir_z = r->dz, .time = 0, .tfar = r->tmax,
+                           .mask = 0xFFFFFFFFu, .id = 0, .flags = 0};
+}
+
+static HitRecord closest(const struct RTCRayHit *rh) {
+    if (rh->hit.geomID == RTC_INVALID_GEOMETRY_ID) return (HitRecord){INFINITY, HIT_MISS_PRIM, 0, 0};
+    return (HitRecord){rh->ray.tfar, rh->hit.primID, rh->hit.u, rh->hit.v};
+}
+
+/* Fill lane k of a packet from a ray record. */
+static void set_lane(struct RTCRayHit16 *p, int k, const RayRecord *r) {
+    p->ray.org_x[k] = r->ox, p->ray.org_y[k] = r->oy, p->ray.org_z[k] = r->oz, p->ray.tnear[k] = r->tmin;
+    p->ray.dir_x[k] = r->dx, p->ray.dir_y[k] = r->dy, p->ray.dir_z[k] = r->dz, p->ray.tfar[k] = r->tmax;
+    p->ray.time[k] = 0, p->ray.mask[k] = 0xFFFFFFFFu, p->ray.id[k] = 0, p->ray.flags[k] = 0;
+    p->hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
+}
+
+static HitRecord lane_hit(const struct RTCRayHit16 *p, int k) {
+    if (p->hit.geomID[k] == RTC_INVALID_GEOMETRY_ID) return (HitRecord){INFINITY, HIT_MISS_PRIM, 0, 0};
+    return (HitRecord){p->ray.tfar[k], p->hit.primID[k], p->hit.u[k], p->hit.v[k]};
+}
+
+/* One timed pass over all rays in the chosen mode. */
+static void trace(RTCScene scene, const Options *o, const RayRecord *rays, uint64_t n, HitRecord *hits) {
+    const int64_t count = (int64_t)n;
+    if (o->occluded) {
+#pragma omp parallel for schedule(dynamic, 256)
+        for (int64_t i = 0; i < count; i++) {
+            struct RTCOccludedArguments args;
+            rtcInitOccludedArguments(&args);
+            struct RTCRay ray = to_rtc(&rays[i]);
+            rtcOccluded1(scene, &ray, &args);
+            hits[i] = ray.tfar == -INFINITY ? (HitRecord){0, HIT_MISS_PRIM, 0, 0} : (HitRecord){INFINITY, HIT_MISS_PRIM, 0, 0};
+        }
+    } else if (o->mode == MODE_SINGLE) {
+#pragma omp parallel for schedule(dynamic, 256)
+        for (int64_t i = 0; i < count; i++) {
+            struct RTCIntersectArguments args;
+            rtcInitIntersectArguments(&args);
+            struct RTCRayHit rh = {.ray = to_rtc(&rays[i])};
+            rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+            rtcIntersect1(scene, &rh, &args);
+            hits[i] = closest(&rh);
+        }
+    } else {
+        /* Packets of 16 consecutive rays (the last one partly valid).  Embree 4 removed the
+         * stream API of Embree 3 ("rarely used with minimal performance benefits over packet
+         * tracing", its changelog): `stream` asks for its coherent packet traversal instead. */
+        const int64_t blocks = (count + 15) / 16;
+        const int coherent = o->mode == MODE_STREAM;
+#pragma omp parallel for schedule(dynamic, 16)
+        for (int64_t b = 0; b < blocks; b++) {
+            struct RTCIntersectArguments args;
+            rtcInitIntersectArguments(&args);
+            if (coherent) args.flags = RTC_RAY_QUERY_FLAG_COHERENT;
+            struct RTCRayHit16 p;
+            _Alignas(64) int valid[16]; /* Embree reads it with 64-byte aligned loads */
+            for (int k = 0; k < 16; k++) {
+                const int64_t i = b * 16 + k;
+                valid[k] = i < count ? -1 : 0;
+                set_lane(&p, k, &rays[i < count ? i : b * 16]);
+            }
+            rtcIntersect16(valid, scene, &p, &args);
+            for (int k = 0; k < 16 && b * 16 + k < count; k++) hits[b * 16 + k] = lane_hit(&p, k);
+        }
+    }
+}
+
+/* The headers are vendored and the library comes from elsewhere (a wheel): check that the
+ * library writes exactly the ray/hit structures these headers declare, with guard bytes
+ * after them, on one triangle hit at a known point. */
+static void check_layout(RTCDevice device) {
+    float vertices[4 * 3 + 4] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+    uint32_t indices[3] = {0, 1, 2};
+    Mesh tri = {.vertices = vertices, .vertex_count = 3, .indices = indices, .triangle_count = 1};
+    RTCScene scene = build(device, &tri, QUALITY_MEDIUM);
+    const RayRecord r = {0.25f, 0.5f, 1, 0, 0, 0, -1, INFINITY}; /* hits at t = 1, u = 0.25, v = 0.5 */
+    enum { GUARD = 256 };
+    const HitRecord want = {1, 0, 0.25f, 0.5f};
+
+    /* aligned_alloc wants a multiple of the alignment. */
+    struct RTCRayHit *single = aligned_alloc(64, (sizeof *single + GUARD + 63) / 64 * 64);
+    struct RTCRayHit16 *packet = aligned_alloc(64, (sizeof *packet + GUARD + 63) / 64 * 64);
+    if (!single || !packet) fail("out of memory");
+    memset((char *)single + sizeof *single, 0xA5, GUARD);
+    memset((char *)packet + sizeof *packet, 0xA5, GUARD);
+    *single = (struct RTCRayHit){.ray = to_rtc(&r)};
+    single->hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rtcIntersect1(scene, single, NULL);
+    _Alignas(64) int valid[16]; /* Embree reads it with 64-byte aligned loads */
+    for (int k = 0; k < 16; k++) set_lane(packet, k, &r), valid[k] = -1;
+    rtcIntersect16(valid, scene, packet, NULL);
+
+    HitRecord got[2] = {closest(single), lane_hit(packet, 15)};
+    for (int i = 0; i < 2; i++) {
+        const unsigned char *guard = i == 0 ? (unsigned char *)(single + 1) : (unsigned char *)(packet + 1);
+        for (int k = 0; k < GUARD; k++)
+            if (guard[k] != 0xA5)
+                fail("the Embree library wrote past %s as include/embree4 declares it: headers and library do not match",
+                     i == 0 ? "RTCRayHit" : "RTCRayHit16");
+        if (fabsf(got[i].t - want.t) > 1e-5f || got[i].prim != want.prim || fabsf(got[i].u - want.u) > 1e-5f ||
+            fabsf(got[i].v - want.v) > 1e-5f)
+            fail("the Embree library's %s hit (t %g, prim %u, u %g, v %g) is not the expected one: headers and library do not match",
+                 i == 0 ? "single" : "packet", got[i].t, got[i].prim, got[i].u, got[i].v);
+    }
+    free(single);
+    free(packet);
+    rtcReleaseScene(scene);
+}
+
+int main(int argc, char **argv) {
+    Options o;
+    parse_options("embree4-bench", argc, argv, &o);
+    if (o.threads > 0) omp_set_num_threads(o.threads);
+    const int threads = omp_get_max_threads();
+
+    double t0 = now_ms();
+    Mesh mesh;
+    load_obj(o.mesh_path, &mesh);
+    const double load_ms = now_ms() - t0;
+    uint64_t n;
+    RayRecord *rays = load_rays(o.rays_path, &n);
+    HitRecord *hits = malloc(n ? n * sizeof *hits : 1);
+    if (!hits) fail("out of memory for %llu hits", (unsigned long long)n);
+
+    char config[64];
+    snprintf(config, sizeof config, "threads=%d,verbose=%d", threads, o.verbose ? 1 : 0);
+    RTCDevice device = rtcNewDevice(config);
+    if (!device) fail("rtcNewDevice(\"%s\") failed: error %d", config, (int)rtcGetDeviceError(NULL));
+    rtcSetDeviceErrorFunction(device, on_error, NULL);
+    const long version = (long)rtcGetDeviceProperty(device, RTC_DEVICE_PROPERTY_VERSION);
+    if (version / 10000 != RTC_VERSION_MAJOR)
+        fail("the Embree library is version %ld, the headers in include/embree4 are %s", version, RTC_VERSION_STRING);
+    check_layout(device);
+
+    /* Builds: the best of min(repeat, 3), each from scratch (as isir's are timed). */
+    RTCScene scene = NULL;
+    double build_ms = INFINITY;
+    for (int r = 0; r < (o.repeat < 3 ? o.repeat : 3); r++) {
+        if (scene) rtcReleaseScene(scene);
+        const double b0 = now_ms();
+        scene = build(device, &mesh, o.quality);
+        const double b = now_ms() - b0;
+        if (b < build_ms) build_ms = b;
+    }
+
+    /* Traces: the best of repeat. */
+    double trace_ms = INFINITY;
+    for (int r = 0; r < o.repeat; r++) {
+        const double s0 = now_ms();
+        trace(scene, &o, rays, n, hits);
+        const double s = now_ms() - s0;
+        if (s < trace_ms) trace_ms = s;
+    }
+
+    uint64_t hit_count = 0;
+    for (uint64_t i = 0; i < n; i++) hit_count += hits[i].t < INFINITY;
+    char engine[64];
+    snprintf(engine, sizeof engine, "embree %ld.%ld.%ld", version / 10000, version / 100 % 100, version % 100);
+    Report report = {.engine = engine,
+                     .note = o.mode == MODE_STREAM ? "Embree 4 has no stream API: packets of 16 flagged coherent (rtcIntersect16)"
+                                                   : NULL,
+                     .threads = threads,
+                     .options = &o,
+                     .triangles = mesh.triangle_count,
+                     .rays = n,
+                     .hits = hit_count,
+                     .obj_load_ms = load_ms,
+                     .build_ms = build_ms,
+                     .trace_ms = trace_ms};
+    if (o.hits_path) write_hits(o.hits_path, hits, n);
+    print_report(&report);
+
+    rtcReleaseScene(scene);
+    rtcReleaseDevice(device);
+    free(hits);
+    free(rays);
+    free(mesh.vertices);
+    free(mesh.indices);
+    return 0;
+}
