@@ -74,6 +74,27 @@ fn missing_and_malformed_meshes_are_one_line_errors() {
 }
 
 #[test]
+fn meshes_too_large_for_single_precision_are_refused_and_large_ones_render() {
+    // Scaled by 1e20, products of coordinates overflow f32: refused with the reason.
+    let huge = tmp("huge.obj");
+    std::fs::write(&huge, "v 0 0 0\nv 1e20 0 0\nv 0 1e20 0\nf 1 2 3\n").unwrap();
+    let (code, _, err) = isir(&["render", huge.to_str().unwrap(), "-o", tmp("huge.png").to_str().unwrap()]);
+    one_line_error(code, &err, "huge.obj");
+    assert!(err.contains("scale it down"), "{err}");
+    assert!(!tmp("huge.png").exists(), "nothing is written for a refused scene");
+    // Scaled by 1e9 (inside the range): framed and rendered, not a background-only image.
+    let big = tmp("big.obj");
+    std::fs::write(&big, "v 0 0 0\nv 1e9 0 0\nv 0 1e9 0\nf 1 2 3\n").unwrap();
+    let (code, _, err) =
+        isir(&["render", big.to_str().unwrap(), "-o", tmp("big.png").to_str().unwrap(), "--width", "32", "--height", "32"]);
+    assert_eq!(code, 0, "{err}");
+    let img = image::open(tmp("big.png")).unwrap().to_rgb8();
+    let background = *img.get_pixel(0, 0);
+    let lit = img.pixels().filter(|p| **p != background && p.0.iter().any(|&c| c > 0)).count();
+    assert!(lit > 32, "camera rays must reach the triangle: {lit} lit pixels");
+}
+
+#[test]
 fn renders_an_obj_file_with_warnings_for_degenerate_triangles() {
     let obj = tmp("quad.obj");
     std::fs::write(&obj, "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\nf 1 1 2\n").unwrap();
