@@ -1,0 +1,58 @@
+//! Every built-in scene renders the same pixels, bit for bit, as recorded here.
+//!
+//! The table guards refactors (moving code must not move a single bit of any image). The
+//! renders use the scalar traversal, which every x86-64 CPU runs and which computes the
+//! same floats on all of them, so the table does not depend on AVX2/AVX-512. A change
+//! that is meant to change images (new sampling, a fixed bug) updates the table in the
+//! same commit and says why; the test prints the new hashes to paste.
+
+use isir::wide::SimdLevel;
+use isir::{scenes, Accel, Geometry, Renderer};
+
+/// FNV-1a over the bits of every pixel's linear RGB: stable across Rust versions, unlike
+/// `DefaultHasher`.
+fn fnv1a(words: impl Iterator<Item = u32>) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for w in words {
+        for b in w.to_le_bytes() {
+            h ^= b as u64;
+            h = h.wrapping_mul(0x0000_0100_0000_01b3);
+        }
+    }
+    h
+}
+
+fn render_hash(name: &str, accel: Accel) -> u64 {
+    let desc = scenes::builtin(name).unwrap();
+    let mut scene = desc.build(accel).unwrap();
+    for object in &mut scene.objects {
+        if let Geometry::Mesh(mesh) = &mut object.geometry {
+            mesh.set_simd_level(SimdLevel::Scalar);
+        }
+    }
+    let renderer = Renderer::new(64, 48).spp(2);
+    let (image, _) = renderer.render(&scene, &desc.camera.build(renderer.aspect()), &desc.integrator);
+    fnv1a(image.pixels.iter().flat_map(|c| [c.x.to_bits(), c.y.to_bits(), c.z.to_bits()]))
+}
+
+/// (scene, acceleration structure, hash of its 64×48, 2 spp render).
+const TABLE: &[(&str, Accel, u64)] = &[
+    ("tp4-sphere-flat", Accel::BvhSah, 0x19d2a3cf95412bd8),
+    ("tp4-sphere", Accel::BvhSah, 0xd3771cbf8bdb4a29),
+    ("tp4-bunny", Accel::BvhSah, 0x81ccbed896a6c2c6),
+    ("tp4-bunny", Accel::BvhMid, 0x81ccbed896a6c2c6),
+    ("tp4-conference", Accel::BvhSah, 0xc83cbcaa6f1140e6),
+];
+
+#[test]
+fn every_builtin_scene_renders_the_recorded_pixels() {
+    let listed: Vec<&str> = scenes::list().into_iter().map(|(n, _)| n).collect();
+    for n in &listed {
+        assert!(TABLE.iter().any(|(t, _, _)| t == n), "built-in scene {n} has no recorded hash: add it to TABLE");
+    }
+    let got: Vec<(&str, Accel, u64)> = TABLE.iter().map(|&(n, a, _)| (n, a, render_hash(n, a))).collect();
+    let table: String = got.iter().map(|(n, a, h)| format!("    (\"{n}\", Accel::{a:?}, {h:#018x}),\n")).collect();
+    for (&(n, a, want), &(_, _, h)) in TABLE.iter().zip(&got) {
+        assert_eq!(h, want, "{n} ({}) renders other pixels than recorded; if that is intended, the table is now:\n{table}", a.name());
+    }
+}
