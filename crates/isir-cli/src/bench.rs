@@ -8,7 +8,7 @@ use crate::{threads_phrase, warn_all, with_threads};
 use anyhow::Context;
 use clap::Args;
 use isir::rays::{self, compare_hits, HitRecord, RayKind};
-use isir::scene::{MeshSource, SceneDescription, ShapeDesc};
+use isir::scenes::{MeshSource, SceneDescription, ShapeDesc};
 use isir::{Accel, Scene};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};

@@ -4,7 +4,7 @@ use crate::{threads_phrase, warn_all, with_threads};
 use anyhow::Context;
 use clap::{Args, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
-use isir::scene::{CameraDesc, MeshSource, ObjectDesc, SceneDescription, ShapeDesc};
+use isir::scenes::{CameraDesc, MeshSource, ObjectDesc, SceneDescription, ShapeDesc};
 use isir::triangle::TriangleTest;
 use isir::{Accel, Display, Integrator, Renderer, Scene};
 use std::path::PathBuf;

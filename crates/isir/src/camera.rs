@@ -5,7 +5,7 @@
 //! `(sx, sy) ∈ [0,1]²` with row 0 at the top. Looking down +z from (0,0,-6), world +x is on
 //! the **left** of the image, as in the course.
 
-use crate::ray::Ray;
+use crate::math::ray::Ray;
 use glam::Vec3;
 
 /// A perspective camera with focal distance 1.

@@ -16,7 +16,7 @@ pub enum Error {
         source: std::io::Error,
     },
     /// An input file was refused before it was parsed: not a regular file, larger than
-    /// the input limit (see [`crate::input::ReadLimits`]), or of a format isir does not read.
+    /// the input limit (see [`crate::io::input::ReadLimits`]), or of a format isir does not read.
     #[error("{path}: {message}")]
     Input {
         /// The file.

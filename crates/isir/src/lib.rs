@@ -3,7 +3,8 @@
 //! The course's nouns name the code: [`Camera`], [`Scene`], [`Sphere`], [`Plane`],
 //! [`TriangleMesh`], [`Aabb`], [`Bvh`], [`Material`], [`Light`], [`Integrator`],
 //! [`Renderer`]. Above the [`Scene::intersect`] / [`Scene::occluded`] seam the code reads
-//! like the course; below it ([`bvh`], [`wide`]) it is laid out for speed.
+//! like the course; below it ([`accel`]: [`accel::bvh`], [`accel::wide`]) it is laid out
+//! for speed. `ARCHITECTURE.md` maps the folders.
 //!
 //! ```no_run
 //! use isir::{scenes, Accel, Renderer};
@@ -17,46 +18,51 @@
 //! ```
 #![warn(missing_docs)]
 
-pub mod aabb;
-pub mod bvh;
+// The course's nouns, above the seam.
 pub mod camera;
-pub mod color;
-pub mod error;
-pub mod geometry;
-pub mod image;
-pub mod input;
-pub mod integrator;
-pub mod light;
-pub mod material;
-pub mod obj;
-pub mod output;
-pub mod packet;
-pub mod ray;
-pub mod rays;
+pub mod integrators;
+pub mod lights;
+pub mod materials;
 pub mod renderer;
-pub mod sampling;
 pub mod scene;
 pub mod scenes;
-pub mod triangle;
-pub mod wide;
+// The shapes and the surface interaction.
+pub mod geometry;
+// Below the seam, and the mathematics under everything.
+pub mod accel;
+pub mod math;
+// Files in and out.
+pub mod error;
+pub mod io;
 
-pub use aabb::Aabb;
-pub use bvh::{Bvh, BvhNode, BvhQuality};
+pub use accel::bvh::{Bvh, BvhNode, BvhQuality};
+pub use accel::Accel;
 pub use camera::Camera;
-pub use color::Color;
 pub use error::{Error, Result};
-pub use geometry::{Geometry, Plane, Sphere, TriangleMesh};
-pub use image::{Display, Image};
-pub use integrator::Integrator;
-pub use light::Light;
-pub use material::Material;
-pub use ray::Ray;
+pub use geometry::{Geometry, Hit, Plane, Sphere, TriangleMesh};
+pub use integrators::Integrator;
+pub use io::image::{Display, Image};
+pub use lights::Light;
+pub use materials::Material;
+pub use math::aabb::Aabb;
+pub use math::color::Color;
+pub use math::ray::Ray;
 pub use renderer::{RenderStats, Renderer};
-pub use scene::{Accel, Hit, Scene, SceneDescription};
+pub use scene::Scene;
+pub use scenes::{CameraDesc, SceneDescription};
+
+// The module paths of the flat layout before the folders (`isir::rays::RayRecord`,
+// `isir::wide::SimdLevel`...), so code written against them still compiles.
+pub use accel::{bvh, packet, triangle, wide};
+pub use integrators as integrator;
+pub use io::{image, input, obj, output, rays};
+pub use lights as light;
+pub use materials as material;
+pub use math::{aabb, color, ray, sampling};
 
 /// Parse one of a closed set of named choices (their command-line names), or say which
-/// names exist: the one `FromStr` behind [`Accel`], [`rays::RayKind`] and
-/// [`wide::SimdLevel`].
+/// names exist: the one `FromStr` behind [`Accel`], [`io::rays::RayKind`] and
+/// [`accel::wide::SimdLevel`].
 pub(crate) fn parse_name<T: Copy>(s: &str, all: &[T], name: fn(T) -> &'static str, what: &str) -> std::result::Result<T, String> {
     all.iter().copied().find(|&x| name(x) == s).ok_or_else(|| {
         let names: Vec<&str> = all.iter().map(|&x| name(x)).collect();

@@ -3,10 +3,10 @@
 //! number of threads.
 
 use crate::camera::Camera;
-use crate::color::Color;
-use crate::image::Image;
-use crate::integrator::{Integrator, RayCounters};
-use crate::sampling::pixel_rng;
+use crate::integrators::{Integrator, RayCounters};
+use crate::io::image::Image;
+use crate::math::color::Color;
+use crate::math::sampling::pixel_rng;
 use crate::scene::Scene;
 use rayon::prelude::*;
 use std::time::Instant;
@@ -82,7 +82,7 @@ impl Renderer {
     /// The image is the only full-size buffer: it is cut into bands of one row of tiles,
     /// the bands rendered in parallel, and in each band its tiles in parallel into buffers
     /// of one tile, copied into the band as they come. So the memory of a render is the
-    /// image's 12 bytes per pixel and a few bands (see [`crate::image::MAX_PIXELS`]).
+    /// image's 12 bytes per pixel and a few bands (see [`crate::io::image::MAX_PIXELS`]).
     pub fn render_with_progress(
         &self,
         scene: &Scene,

@@ -2,7 +2,7 @@
 //! rejected with a message saying why (issue 8, item 1).
 
 use isir::color::GREY;
-use isir::scene::{CameraDesc, MeshSource, ObjectDesc, SceneDescription, ShapeDesc};
+use isir::scenes::{CameraDesc, MeshSource, ObjectDesc, SceneDescription, ShapeDesc};
 use isir::{Accel, Integrator, Renderer};
 
 /// A scene of one right triangle of side `scale`, one corner `scale` from the origin (the

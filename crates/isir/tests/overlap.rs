@@ -92,7 +92,7 @@ fn stacked_copies_and_ordinary_meshes_are_quiet() {
 
 #[test]
 fn a_file_of_copies_loads_with_warnings_and_renders_fast() {
-    use isir::scene::{CameraDesc, MeshSource, ObjectDesc, SceneDescription, ShapeDesc};
+    use isir::scenes::{CameraDesc, MeshSource, ObjectDesc, SceneDescription, ShapeDesc};
     let dir = std::env::temp_dir().join(format!("isir-overlap-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("copies.obj");

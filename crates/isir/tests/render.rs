@@ -1,7 +1,7 @@
 //! Renders of the built-in scenes: conventions, determinism, nothing blank.
 
 use isir::color::GREY;
-use isir::scene::{MeshSource, ObjectDesc, ShapeDesc};
+use isir::scenes::{MeshSource, ObjectDesc, ShapeDesc};
 use isir::{scenes, Accel, Image, Integrator, Renderer, Vec3};
 
 fn render(name: &str, w: u32, h: u32, spp: u32) -> Image {

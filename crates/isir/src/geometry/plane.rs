@@ -1,6 +1,6 @@
 //! Infinite plane (a point and a normal).
 
-use crate::ray::{gamma, Ray};
+use crate::math::ray::{gamma, Ray};
 use glam::Vec3;
 
 /// An infinite plane through `point` with unit `normal`.

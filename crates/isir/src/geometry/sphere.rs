@@ -1,6 +1,6 @@
 //! Sphere (centre, radius).
 
-use crate::ray::{gamma, Ray};
+use crate::math::ray::{gamma, Ray};
 use glam::Vec3;
 
 /// A sphere.

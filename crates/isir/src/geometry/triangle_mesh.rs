@@ -2,12 +2,12 @@
 //! of vertices, normals and uvs, and triangles as index triples into them, so that no
 //! vertex is stored twice. A triangle is its index in [`TriangleMesh::triangles`].
 
-use crate::aabb::Aabb;
-use crate::bvh::{Bvh, BvhQuality};
-use crate::ray::{gamma, Ray};
-use crate::scene::Accel;
-use crate::triangle::{moller_trumbore, TriangleTest, WatertightRay};
-use crate::wide::WideBvh;
+use crate::accel::bvh::{Bvh, BvhQuality};
+use crate::accel::triangle::{moller_trumbore, TriangleTest, WatertightRay};
+use crate::accel::wide::WideBvh;
+use crate::accel::{Accel, MeshHit, Triangles};
+use crate::math::aabb::Aabb;
+use crate::math::ray::{gamma, Ray};
 use glam::{Vec2, Vec3};
 
 /// Triangle tests by one probe ray above which [`TriangleMesh::overlap_probe`] reports
@@ -115,19 +115,6 @@ enum RayTest {
     Watertight(WatertightRay),
 }
 
-/// A closest hit on a mesh: distance, triangle and Möller–Trumbore barycentrics.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct MeshHit {
-    /// Ray parameter.
-    pub t: f32,
-    /// Triangle index.
-    pub prim: u32,
-    /// Weight of the triangle's second vertex.
-    pub u: f32,
-    /// Weight of its third vertex.
-    pub v: f32,
-}
-
 /// Figures about a mesh's acceleration structure.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct MeshStats {
@@ -142,7 +129,7 @@ pub struct MeshStats {
     /// BVH nodes (0 without a BVH).
     pub nodes: usize,
     /// SAH cost of the BVH (0 without one): for `bvh-mid`, of the binary tree with 1:1
-    /// weights ([`crate::bvh::Bvh::sah_cost`]); for `bvh-sah`, of the wide tree traced
+    /// weights ([`crate::accel::bvh::Bvh::sah_cost`]); for `bvh-sah`, of the wide tree traced
     /// ([`WideBvh::sah_cost`]).
     pub sah_cost: f32,
     /// Bytes of the acceleration structure per triangle.
@@ -170,6 +157,17 @@ pub struct TriangleMesh {
     valid: Vec<bool>,
     accel: MeshAccel,
     stats: MeshStats,
+}
+
+impl Triangles for TriangleMesh {
+    #[inline]
+    fn vertices_of(&self, prim: u32) -> [Vec3; 3] {
+        self.triangle_vertices(prim)
+    }
+
+    fn test(&self) -> TriangleTest {
+        self.triangle_test
+    }
 }
 
 impl TriangleMesh {
@@ -249,7 +247,7 @@ impl TriangleMesh {
         if valid.len() <= OVERLAP_WARNING as usize {
             return None;
         }
-        let mut rng = crate::sampling::Sampler::from_seed(0x15_1e);
+        let mut rng = crate::math::sampling::Sampler::from_seed(0x15_1e);
         let (mut spent, mut worst) = (0u64, (0u64, Vec3::ZERO));
         for _ in 0..256 {
             let prim = valid[(rng.next_f32() * valid.len() as f32) as usize % valid.len()];
@@ -261,7 +259,7 @@ impl TriangleMesh {
             let ray = Ray::new(p + n * reach, -n);
             let tests = match &self.accel {
                 MeshAccel::Wide(w) => {
-                    let mut stats = crate::wide::TraversalStats::default();
+                    let mut stats = crate::accel::wide::TraversalStats::default();
                     w.intersect_stats::<true>(&ray, 0.0, f32::INFINITY, &mut stats);
                     stats.triangles
                 }
@@ -381,8 +379,8 @@ impl TriangleMesh {
     /// Choose the code path of the wide BVH; false when the mesh has none.
     ///
     /// # Panics
-    /// If this CPU cannot run `level` (see [`crate::wide::SimdLevel::available`]).
-    pub fn set_simd_level(&mut self, level: crate::wide::SimdLevel) -> bool {
+    /// If this CPU cannot run `level` (see [`crate::accel::wide::SimdLevel::available`]).
+    pub fn set_simd_level(&mut self, level: crate::accel::wide::SimdLevel) -> bool {
         match &mut self.accel {
             MeshAccel::Wide(w) => {
                 w.set_level(level);

@@ -1,6 +1,6 @@
 //! Lights: a point light and the course's quad (area) light.
 
-use crate::color::Color;
+use crate::math::color::Color;
 use glam::{Vec2, Vec3};
 
 /// A light sample seen from a point `x`.

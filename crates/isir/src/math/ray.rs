@@ -35,6 +35,29 @@ impl Ray {
     }
 }
 
+/// A ray with its interval `[t_min, t_max)`: what the packet tracer takes, and the fields
+/// of a ray file's record, which are the first 32 bytes of Embree's `RTCRay`
+/// ([`crate::io::rays::RayRecord`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RaySegment {
+    /// Origin.
+    pub origin: Vec3,
+    /// Start of the interval.
+    pub t_min: f32,
+    /// Direction (not necessarily normalized).
+    pub direction: Vec3,
+    /// End of the interval (may be +∞).
+    pub t_max: f32,
+}
+
+impl RaySegment {
+    /// The ray.
+    #[must_use]
+    pub fn ray(&self) -> Ray {
+        Ray::new(self.origin, self.direction)
+    }
+}
+
 /// `γ(n) = n·u / (1 - n·u)` with `u` half an ULP of 1: a bound on the relative rounding
 /// error of `n` chained float operations (Higham; pbrt-v4 §6.8.1 `gamma`).
 #[inline]
@@ -67,7 +90,7 @@ pub fn next_float_down(x: f32) -> f32 {
 /// (pbrt-v4, §6.8.6 "Robust spawned ray origins", `OffsetRayOrigin`).
 ///
 /// `p` is the computed point, `p_error` a conservative bound on its error on each axis
-/// (see [`crate::scene::Hit::point_error`]): the true surface lies within that box of `p`.
+/// (see [`crate::geometry::Hit::point_error`]): the true surface lies within that box of `p`.
 /// The origin moves along the geometric normal `n` (either orientation) to the side of `w`
 /// by `dot(|n|, p_error)`, which takes it out of the box, and each moved coordinate is then
 /// rounded one float further away, so that the rounding of `p + offset` cannot undo it.

@@ -1,7 +1,7 @@
 //! Images of linear RGB floats, written as PNG (8-bit) or OpenEXR (linear float).
 
-use crate::color::Color;
 use crate::error::{Error, Result};
+use crate::math::color::Color;
 use std::path::Path;
 
 /// How linear colours become 8-bit pixels.
@@ -79,14 +79,14 @@ pub fn check_size(width: u32, height: u32) -> Result<()> {
 
 /// Check that [`Image::save`] can write `path` (before spending a render on it): a format
 /// it writes, in a directory where a file can be created
-/// ([`crate::output::check_writable`]).
+/// ([`crate::io::output::check_writable`]).
 ///
 /// # Errors
 /// An extension other than `.png` or `.exr`; a directory that does not exist or cannot be
 /// written; a path that names a directory or a file that cannot be written.
 pub fn check_output_path(path: &Path) -> Result<()> {
     output_format(path)?;
-    crate::output::check_writable(path)
+    crate::io::output::check_writable(path)
 }
 
 /// The file formats [`Image::save`] writes.
@@ -134,7 +134,7 @@ impl Image {
     }
 
     /// Write to `path`: linear float OpenEXR when it ends in `.exr`, otherwise PNG through
-    /// `display`. The file is written whole or not at all (see [`crate::output`]): a
+    /// `display`. The file is written whole or not at all (see [`crate::io::output`]): a
     /// failed write leaves the file that was there intact.
     ///
     /// # Errors
@@ -154,7 +154,7 @@ impl Image {
         if !message.is_empty() {
             return Err(Error::Image { path: path.to_path_buf(), message });
         }
-        crate::output::write_atomically(path, |w| match format {
+        crate::io::output::write_atomically(path, |w| match format {
             Format::Exr => {
                 use exr::prelude::{SpecificChannels, Vec2, WritableImage};
                 let width = self.width as usize;
@@ -166,7 +166,7 @@ impl Image {
                 exr::prelude::Image::from_channels((width, self.height as usize), channels).write().to_buffered(&mut *w).map_err(
                     |e| match e {
                         exr::error::Error::Io(e) => e,
-                        e => crate::output::other(e),
+                        e => crate::io::output::other(e),
                     },
                 )
             }
@@ -177,7 +177,7 @@ impl Image {
                     .write_image(&self.to_rgb8(display), self.width, self.height, image::ExtendedColorType::Rgb8)
                     .map_err(|e| match e {
                         image::ImageError::IoError(e) => e,
-                        e => crate::output::other(e),
+                        e => crate::io::output::other(e),
                     })
             }
         })

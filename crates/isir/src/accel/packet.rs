@@ -5,11 +5,11 @@
 //! Used for coherent rays (camera rays of neighbouring pixels). Rays whose direction signs
 //! differ within the packet, a watertight BVH, or a CPU without AVX-512 fall back to one
 //! ray at a time. Möller–Trumbore is computed operation for operation as in
-//! [`crate::triangle::moller_trumbore`], so packets return the same hits as single rays.
+//! [`crate::accel::triangle::moller_trumbore`], so packets return the same hits as single rays.
 
-use crate::geometry::MeshHit;
-use crate::rays::RayRecord;
-use crate::wide::{SimdLevel, WideBvh};
+use crate::accel::wide::{SimdLevel, WideBvh};
+use crate::accel::MeshHit;
+use crate::math::ray::RaySegment;
 
 /// Rays per packet.
 pub const PACKET: usize = 16;
@@ -19,10 +19,10 @@ impl WideBvh {
     ///
     /// # Panics
     /// If `rays` holds more than [`PACKET`] rays or `out` is shorter than `rays`.
-    pub fn intersect_packet(&self, rays: &[RayRecord], out: &mut [Option<MeshHit>]) {
+    pub fn intersect_packet(&self, rays: &[RaySegment], out: &mut [Option<MeshHit>]) {
         assert!(rays.len() <= PACKET && out.len() >= rays.len());
         #[cfg(target_arch = "x86_64")]
-        if self.level() == SimdLevel::Avx512 && !self.watertight && self.root != crate::wide::EMPTY {
+        if self.level() == SimdLevel::Avx512 && !self.watertight && self.root != crate::accel::wide::EMPTY {
             // SAFETY: the level is only ever Avx512 when the CPU reported AVX-512.
             if unsafe { self.packet_avx512(rays, out) } {
                 return;
@@ -37,8 +37,8 @@ impl WideBvh {
     /// signs differ, which the octant-ordered box test cannot handle.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
-    unsafe fn packet_avx512(&self, rays: &[RayRecord], out: &mut [Option<MeshHit>]) -> bool {
-        use crate::wide::{leaf_blocks, EMPTY, LEAF, STACK_SIZE, WIDEN};
+    unsafe fn packet_avx512(&self, rays: &[RaySegment], out: &mut [Option<MeshHit>]) -> bool {
+        use crate::accel::wide::{leaf_blocks, EMPTY, LEAF, STACK_SIZE, WIDEN};
         use std::arch::x86_64::*;
 
         // ---- Load the packet as structure of arrays ----
@@ -52,7 +52,7 @@ impl WideBvh {
             }
             let d = r.direction;
             // The same inverse and octant as the single-ray box test.
-            let (inv, signs) = crate::wide::slab_inverse(d);
+            let (inv, signs) = crate::accel::wide::slab_inverse(d);
             match neg {
                 None => neg = Some(signs),
                 Some(n) if n != signs => return false,

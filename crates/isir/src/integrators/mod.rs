@@ -1,9 +1,10 @@
 //! Integrators: `Li(scene, ray, tMin, tMax)`, the colour seen along a ray.
 
-use crate::color::Color;
-use crate::ray::Ray;
-use crate::sampling::Sampler;
-use crate::scene::{Hit, Scene};
+use crate::geometry::Hit;
+use crate::math::color::Color;
+use crate::math::ray::Ray;
+use crate::math::sampling::Sampler;
+use crate::scene::Scene;
 
 /// Rays traced, by kind.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]

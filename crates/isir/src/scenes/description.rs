@@ -1,212 +1,22 @@
-//! The scene: objects, materials and lights, and the seam between the textbook code and
-//! the fast code: [`Scene::intersect`] (closest hit) and [`Scene::occluded`] (any hit).
-//!
-//! Parse, then build: a [`SceneDescription`] is plain data (the built-in course scenes are
-//! descriptions too); [`SceneDescription::build`] loads meshes and builds their
-//! acceleration structures.
+//! Scene descriptions: plain data (camera, materials, objects, lights, the settings to
+//! render with), then [`SceneDescription::build`] loads meshes and builds their
+//! acceleration structures into a [`Scene`]. Parse, then build.
 
-use crate::aabb::Aabb;
+use crate::accel::triangle::TriangleTest;
+use crate::accel::Accel;
 use crate::camera::Camera;
-use crate::color::{Color, GREY, WHITE};
 use crate::error::{Error, Result};
-use crate::geometry::{Geometry, Plane, Shading, Sphere, TriangleMesh};
-use crate::image::Display;
-use crate::integrator::Integrator;
-use crate::light::Light;
-use crate::material::{Material, MaterialId};
-use crate::obj;
-use crate::ray::{spawn_ray, spawn_ray_to, Ray};
-use crate::triangle::TriangleTest;
+use crate::geometry::{Geometry, Plane, Shading, Sphere};
+use crate::integrators::Integrator;
+use crate::io::image::Display;
+use crate::io::obj;
+use crate::lights::Light;
+use crate::materials::{Material, MaterialId};
+use crate::math::aabb::Aabb;
+use crate::math::color::{Color, GREY, WHITE};
+use crate::scene::{Object, Scene};
 use glam::Vec3;
 use std::path::PathBuf;
-
-/// How meshes are accelerated: the four steps of the TP4 lesson.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum Accel {
-    /// Every triangle for every ray.
-    None,
-    /// The mesh's bounding box first, then every triangle.
-    Aabb,
-    /// The course's BVH: largest-axis midpoint split, 8 triangles per leaf, depth 32.
-    BvhMid,
-    /// Binned SAH BVH in the wide SIMD layout (the default).
-    #[default]
-    BvhSah,
-}
-
-impl Accel {
-    /// Every choice, in lesson order.
-    pub const ALL: [Accel; 4] = [Accel::None, Accel::Aabb, Accel::BvhMid, Accel::BvhSah];
-
-    /// The command-line name.
-    #[must_use]
-    pub fn name(self) -> &'static str {
-        match self {
-            Accel::None => "none",
-            Accel::Aabb => "aabb",
-            Accel::BvhMid => "bvh-mid",
-            Accel::BvhSah => "bvh-sah",
-        }
-    }
-}
-
-impl std::str::FromStr for Accel {
-    type Err = String;
-    /// Parse a command-line name (`none`, `aabb`, `bvh-mid`, `bvh-sah`).
-    fn from_str(s: &str) -> std::result::Result<Self, String> {
-        crate::parse_name(s, &Self::ALL, Self::name, "acceleration structure")
-    }
-}
-
-/// A surface interaction: built once, for the closest hit only.
-#[derive(Clone, Copy, Debug)]
-pub struct Hit {
-    /// Ray parameter.
-    pub t: f32,
-    /// Hit point, computed on the surface (from the barycentrics on a triangle, reprojected
-    /// on spheres and planes), not as `o + t·d`, whose error grows with `t`.
-    pub point: Vec3,
-    /// A conservative bound on the error of `point` on each axis: the true surface point
-    /// lies within `point ± point_error`. Rays leaving the surface start outside that box
-    /// ([`Hit::spawn_ray`], [`Hit::spawn_ray_to`]; pbrt-v4 §6.8).
-    pub point_error: Vec3,
-    /// Shading normal, facing the incoming ray.
-    pub normal: Vec3,
-    /// Geometric normal, facing the incoming ray.
-    pub geometric_normal: Vec3,
-    /// Index of the object.
-    pub object: u32,
-    /// Triangle index within a mesh (0 for other geometries).
-    pub prim: u32,
-    /// Barycentrics on a triangle (0 otherwise).
-    pub u: f32,
-    /// Barycentrics on a triangle (0 otherwise).
-    pub v: f32,
-    /// The material at the hit.
-    pub material: MaterialId,
-}
-
-/// An object: a geometry and the materials of its parts (one, or one per mesh material).
-#[derive(Clone, Debug)]
-pub struct Object {
-    /// Name, as the course names objects.
-    pub name: String,
-    /// Shape.
-    pub geometry: Geometry,
-    /// Materials by slot (meshes have one slot per file material).
-    pub materials: Vec<MaterialId>,
-}
-
-/// A built scene, ready to trace.
-#[derive(Clone, Debug)]
-pub struct Scene {
-    /// Objects.
-    pub objects: Vec<Object>,
-    /// Materials, indexed by [`MaterialId`].
-    pub materials: Vec<Material>,
-    /// Lights.
-    pub lights: Vec<Light>,
-    /// Colour of rays that hit nothing.
-    pub background: Color,
-    /// What loading found odd but could handle (degenerate triangles, missing files of
-    /// materials...), one line each.
-    pub warnings: Vec<String>,
-}
-
-impl Scene {
-    /// The closest hit in `[t_min, t_max)`. Invalid rays (NaN, zero direction) hit nothing.
-    #[must_use]
-    pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
-        if !ray.is_valid() {
-            return None;
-        }
-        // Phase 1: the closest (object, t, prim, u, v), nothing else.
-        let mut best: Option<(usize, f32, u32, f32, f32)> = None;
-        let mut t_best = t_max;
-        for (i, o) in self.objects.iter().enumerate() {
-            let found = match &o.geometry {
-                Geometry::Sphere(s) => s.intersect(ray, t_min, t_best).map(|t| (t, 0, 0.0, 0.0)),
-                Geometry::Plane(p) => p.intersect(ray, t_min, t_best).map(|t| (t, 0, 0.0, 0.0)),
-                Geometry::Mesh(m) => m.intersect(ray, t_min, t_best).map(|h| (h.t, h.prim, h.u, h.v)),
-            };
-            if let Some((t, prim, u, v)) = found {
-                t_best = t;
-                best = Some((i, t, prim, u, v));
-            }
-        }
-        // Phase 2: the surface interaction of that one hit.
-        let (i, t, prim, u, v) = best?;
-        let o = &self.objects[i];
-        let ((point, point_error), normal, geometric, slot) = match &o.geometry {
-            Geometry::Sphere(s) => {
-                let (p, e) = s.surface_point(ray, t);
-                ((p, e), s.normal(p), s.normal(p), 0)
-            }
-            Geometry::Plane(p) => (p.surface_point(ray, t), p.normal, p.normal, 0),
-            Geometry::Mesh(m) => {
-                (m.surface_point(prim, u, v), m.shading_normal(prim, u, v), m.face_normal(prim), m.material_slots[prim as usize] as usize)
-            }
-        };
-        let face = |n: Vec3| if ray.direction.dot(n) > 0.0 { -n } else { n };
-        Some(Hit {
-            t,
-            point,
-            point_error,
-            normal: face(normal),
-            geometric_normal: face(geometric),
-            object: i as u32,
-            prim,
-            u,
-            v,
-            material: o.materials[slot.min(o.materials.len() - 1)],
-        })
-    }
-
-    /// True when anything meets the ray in `[t_min, t_max)` (the shadow-ray query).
-    #[must_use]
-    pub fn occluded(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
-        ray.is_valid()
-            && self.objects.iter().any(|o| match &o.geometry {
-                Geometry::Sphere(s) => s.intersect(ray, t_min, t_max).is_some(),
-                Geometry::Plane(p) => p.intersect(ray, t_min, t_max).is_some(),
-                Geometry::Mesh(m) => m.occluded(ray, t_min, t_max),
-            })
-    }
-
-    /// The material of a hit.
-    #[must_use]
-    pub fn material(&self, hit: &Hit) -> &Material {
-        &self.materials[hit.material as usize]
-    }
-
-    /// The meshes of the scene.
-    pub fn meshes(&self) -> impl Iterator<Item = (&str, &TriangleMesh)> {
-        self.objects.iter().filter_map(|o| match &o.geometry {
-            Geometry::Mesh(m) => Some((o.name.as_str(), m.as_ref())),
-            _ => None,
-        })
-    }
-}
-
-impl Hit {
-    /// The ray leaving the hit in direction `w`, its origin offset off the surface by the
-    /// point's error bound (pbrt-v4 `SpawnRay`), `t` from 0: it cannot hit this surface at
-    /// the hit point again.
-    #[must_use]
-    pub fn spawn_ray(&self, w: Vec3) -> Ray {
-        spawn_ray(self.point, self.point_error, self.geometric_normal, w)
-    }
-
-    /// The shadow ray from the hit to `target` (pbrt-v4 `SpawnRayTo`): unit direction, and
-    /// the `t_max` that stops it just short of the target. `None` when the target is not
-    /// finite or is the origin itself.
-    #[must_use]
-    pub fn spawn_ray_to(&self, target: Vec3) -> Option<(Ray, f32)> {
-        spawn_ray_to(self.point, self.point_error, self.geometric_normal, target)
-    }
-}
-
-// ---- Descriptions ----
 
 /// Where a camera stands and looks (the aspect ratio comes from the image).
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -5,7 +5,7 @@
 //! `(1-u-v)·v0 + u·v1 + v·v2`. Both faces are hit (no culling), as in the course.
 //! Every comparison is written so that NaN is a miss.
 
-use crate::ray::Ray;
+use crate::math::ray::Ray;
 use glam::Vec3;
 
 /// Which ray–triangle test a mesh uses.
@@ -32,7 +32,7 @@ pub struct TriangleHit {
 /// Möller–Trumbore with the edges precomputed: `e1 = v1 - v0`, `e2 = v2 - v0`.
 ///
 /// Accepts `t_min <= t < t_max`. The arithmetic is written out in a fixed order so that
-/// the SIMD versions in [`crate::wide`] give bit-identical results.
+/// the SIMD versions in [`crate::accel::wide`] give bit-identical results.
 #[inline(always)]
 #[must_use]
 pub fn moller_trumbore_edges(ray: &Ray, v0: Vec3, e1: Vec3, e2: Vec3, t_min: f32, t_max: f32) -> Option<TriangleHit> {

@@ -1,27 +1,35 @@
 //! The course's scenes, built in and reproducible by name, and the models they use
-//! (shipped inside the library, so a fresh clone renders them anywhere).
+//! (shipped inside the library, so a fresh clone renders them anywhere), and the
+//! [`SceneDescription`] they are written in.
+//!
+//! This folder sits above [`crate::integrators`] (a description names the integrator it
+//! is meant for) and [`crate::scene`] (it builds a [`crate::Scene`]), so it is not inside
+//! `scene/`: the seam stays free of upward imports.
 
-use crate::color::{BLUE, CYAN, GREEN, GREY, MAGENTA, RED, WHITE, YELLOW};
+mod description;
+
+pub use description::{CameraDesc, MeshSource, ObjectDesc, SceneDescription, ShapeDesc, MAX_COORDINATE};
+
 use crate::error::{Error, Result};
 use crate::geometry::{Plane, Shading};
-use crate::integrator::Integrator;
-use crate::light::Light;
-use crate::material::Material;
-use crate::obj::{self, LoadedMesh};
-use crate::scene::{CameraDesc, MeshSource, ObjectDesc, SceneDescription, ShapeDesc};
+use crate::integrators::Integrator;
+use crate::io::obj::{self, LoadedMesh};
+use crate::lights::Light;
+use crate::materials::Material;
+use crate::math::color::{BLUE, CYAN, GREEN, GREY, MAGENTA, RED, WHITE, YELLOW};
 use glam::Vec3;
 use std::path::Path;
 
 /// The models shipped with the library: name, OBJ bytes (gzip when the name of the
 /// original ends in `.gz`), MTL bytes.
 const MODELS: [(&str, &str, &[u8], &[u8]); 3] = [
-    ("uvsphere", "uvsphere.obj", include_bytes!("../data/uvsphere.obj"), include_bytes!("../data/uvsphere.mtl")),
-    ("Bunny", "Bunny.obj", include_bytes!("../data/Bunny.obj"), include_bytes!("../data/Bunny.mtl")),
+    ("uvsphere", "uvsphere.obj", include_bytes!("../../data/uvsphere.obj"), include_bytes!("../../data/uvsphere.mtl")),
+    ("Bunny", "Bunny.obj", include_bytes!("../../data/Bunny.obj"), include_bytes!("../../data/Bunny.mtl")),
     (
         "conference",
         "conference.obj.gz",
-        include_bytes!("../data/conference/conference.obj.gz"),
-        include_bytes!("../data/conference/conference.mtl"),
+        include_bytes!("../../data/conference/conference.obj.gz"),
+        include_bytes!("../../data/conference/conference.mtl"),
     ),
 ];
 
@@ -46,7 +54,7 @@ fn model(name: &str) -> Result<&'static (&'static str, &'static str, &'static [u
 
 fn unpack(file: &str, bytes: &[u8]) -> Result<Vec<u8>> {
     if file.ends_with(".gz") {
-        crate::input::gunzip(Path::new(file), bytes, &crate::input::ReadLimits::default())
+        crate::io::input::gunzip(Path::new(file), bytes, &crate::io::input::ReadLimits::default())
     } else {
         Ok(bytes.to_vec())
     }

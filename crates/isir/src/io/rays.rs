@@ -3,8 +3,8 @@
 
 use crate::camera::Camera;
 use crate::error::{Error, Result};
-use crate::ray::Ray;
-use crate::sampling::{pixel_rng, square_to_cosine_hemisphere};
+use crate::math::ray::RaySegment;
+use crate::math::sampling::{pixel_rng, square_to_cosine_hemisphere};
 use crate::scene::Scene;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -15,26 +15,9 @@ const RAYS_MAGIC: &[u8; 8] = b"ISIRRAYS";
 const HITS_MAGIC: &[u8; 8] = b"ISIRHITS";
 const HEADER: usize = 24;
 
-/// One ray record: the first 32 bytes of Embree's `RTCRay`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct RayRecord {
-    /// Origin.
-    pub origin: Vec3,
-    /// Start of the interval.
-    pub t_min: f32,
-    /// Direction (not necessarily normalized).
-    pub direction: Vec3,
-    /// End of the interval (may be +∞).
-    pub t_max: f32,
-}
-
-impl RayRecord {
-    /// The ray.
-    #[must_use]
-    pub fn ray(&self) -> Ray {
-        Ray::new(self.origin, self.direction)
-    }
-}
+/// One ray record: the first 32 bytes of Embree's `RTCRay`, which is exactly a
+/// [`RaySegment`] (a ray and its interval), the type the packet tracer takes.
+pub type RayRecord = RaySegment;
 
 /// One hit record.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -76,10 +59,10 @@ fn header(magic: &[u8; 8], count: usize) -> [u8; HEADER] {
     h
 }
 
-/// Write a ray or hit file whole or not at all ([`crate::output`]), record by record:
+/// Write a ray or hit file whole or not at all ([`crate::io::output`]), record by record:
 /// no copy of the records in memory.
 fn write_records<T>(path: &Path, magic: &[u8; 8], records: &[T], encode: impl Fn(&T, &mut Vec<u8>)) -> Result<()> {
-    crate::output::write_atomically(path, |w| {
+    crate::io::output::write_atomically(path, |w| {
         w.write_all(&header(magic, records.len()))?;
         let mut b = Vec::with_capacity(32);
         for r in records {
@@ -264,7 +247,7 @@ const BAND_RAYS: u32 = 1 << 20;
 /// Generate the ray set of [`generate`] and write it to a ray file as it is generated, a
 /// band of rows (about 2^20 rays, 32 MiB) at a time: the memory it takes is bounded by the
 /// band whatever the image size (the file holds 32 bytes per ray: 8 GiB at
-/// [`crate::image::MAX_PIXELS`]). The file is the one [`write_rays`] writes of
+/// [`crate::io::image::MAX_PIXELS`]). The file is the one [`write_rays`] writes of
 /// [`generate`]'s set, written whole or not at all. Returns the number of rays.
 ///
 /// # Errors
@@ -285,7 +268,7 @@ fn write_ray_set_in_bands(
 ) -> Result<usize> {
     check_kind(scene, kind)?;
     let mut count = 0;
-    crate::output::write_atomically(path, |w| {
+    crate::io::output::write_atomically(path, |w| {
         // The count of diffuse and shadow rays is known at the end: written then.
         w.write_all(&header(RAYS_MAGIC, 0))?;
         let mut b = Vec::with_capacity(32);
@@ -467,14 +450,14 @@ pub fn trace_mesh(mesh: &crate::TriangleMesh, rays: &[RayRecord], occluded: bool
 }
 
 /// [`trace_mesh`] for closest hits of coherent rays: consecutive rays go in packets of
-/// 16 through [`crate::wide::WideBvh::intersect_packet`] when the mesh has a wide BVH
+/// 16 through [`crate::accel::wide::WideBvh::intersect_packet`] when the mesh has a wide BVH
 /// (one at a time otherwise). Same hits as [`trace_mesh`].
 ///
 /// # Panics
 /// If `hits` and `rays` differ in length.
 pub fn trace_mesh_packets(mesh: &crate::TriangleMesh, rays: &[RayRecord], hits: &mut [HitRecord]) {
+    use crate::accel::packet::PACKET;
     use crate::geometry::MeshAccel;
-    use crate::packet::PACKET;
     let MeshAccel::Wide(wide) = mesh.accel() else {
         return trace_mesh(mesh, rays, false, hits);
     };

@@ -1,6 +1,6 @@
 //! Axis-aligned bounding box ("boîte min-max", TP4 exercise 2).
 
-use crate::ray::Ray;
+use crate::math::ray::Ray;
 use glam::Vec3;
 
 /// An axis-aligned box from `min` to `max`. The empty box has `min = +∞`, `max = -∞`,

@@ -1,12 +1,12 @@
-//! Materials: `shade` returns the BRDF value for a light sample.
+//! Materials: `shade` returns the BRDF value for a light sample (the course's
+//! `Material::shade`); each kind documents exactly what it returns.
 
-use crate::color::Color;
-use crate::light::LightSample;
-use crate::ray::Ray;
-use crate::scene::Hit;
+use crate::geometry::Hit;
+use crate::lights::LightSample;
+use crate::math::color::Color;
+use crate::math::ray::Ray;
 
-/// Index of a material in its [`crate::Scene`].
-pub type MaterialId = u32;
+pub use crate::geometry::MaterialId;
 
 /// The materials of the course (a closed set, dispatched by `match`).
 #[derive(Clone, Debug, PartialEq)]

@@ -13,7 +13,7 @@
 //! - The limit is 1 GiB by default ([`ReadLimits::DEFAULT_MAX_BYTES`]).
 //!   [`ReadLimits::from_env`] reads a different one from the `ISIR_MAX_INPUT_BYTES`
 //!   environment variable (bytes, or with a `K`, `M`, `G` or `T` suffix, powers of 1024),
-//!   which is what [`crate::obj::load_obj`] uses, so the `isir` command honours it.
+//!   which is what [`crate::io::obj::load_obj`] uses, so the `isir` command honours it.
 
 use crate::error::{Error, Result};
 use std::io::Read;

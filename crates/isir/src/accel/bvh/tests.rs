@@ -1,0 +1,148 @@
+//! Tests of the binary BVH.
+
+use super::sah::*;
+use super::*;
+use rand::{Rng, SeedableRng};
+
+fn random_boxes(n: usize, seed: u64) -> Vec<Aabb> {
+    let mut rng = rand_pcg::Pcg32::seed_from_u64(seed);
+    (0..n)
+        .map(|_| {
+            let c = Vec3::new(rng.random_range(-10.0..10.0), rng.random_range(-10.0..10.0), rng.random_range(-10.0..10.0));
+            let e = Vec3::new(rng.random_range(0.0..0.5), rng.random_range(0.0..0.5), rng.random_range(0.0..0.5));
+            Aabb::new(c - e, c + e)
+        })
+        .collect()
+}
+
+/// Every primitive appears once; every node's box contains its children and primitives.
+fn check_invariants(bvh: &Bvh, boxes: &[Aabb], expected_prims: usize) {
+    let mut seen = vec![0u32; boxes.len()];
+    for &p in &bvh.prim_indices {
+        seen[p as usize] += 1;
+    }
+    assert_eq!(bvh.prim_indices.len(), expected_prims);
+    assert!(seen.iter().all(|&s| s <= 1));
+    let contains = |outer: &Aabb, inner: &Aabb| outer.min.cmple(inner.min).all() && outer.max.cmpge(inner.max).all();
+    let mut leaves_total = 0;
+    for n in &bvh.nodes {
+        if n.is_leaf() {
+            leaves_total += n.count as usize;
+            for &p in &bvh.prim_indices[n.left_first as usize..(n.left_first + n.count) as usize] {
+                assert!(contains(&n.aabb(), &boxes[p as usize]));
+            }
+        } else {
+            let c = n.left_first as usize;
+            assert!(c + 1 < bvh.nodes.len());
+            assert!(contains(&n.aabb(), &bvh.nodes[c].aabb()) && contains(&n.aabb(), &bvh.nodes[c + 1].aabb()));
+        }
+    }
+    assert_eq!(leaves_total, expected_prims);
+    assert!(bvh.depth() < STACK_SIZE as u32);
+}
+
+#[test]
+fn builds_are_well_formed() {
+    for n in [1, 2, 9, 100, 5000, 20000] {
+        let boxes = random_boxes(n, n as u64);
+        for q in [BvhQuality::Midpoint, BvhQuality::Sah] {
+            let bvh = Bvh::build(&boxes, q);
+            check_invariants(&bvh, &boxes, n);
+            if q == BvhQuality::Midpoint {
+                assert!(
+                    bvh.nodes.iter().all(|n| !n.is_leaf() || n.count as usize <= MIDPOINT_MAX_LEAF) || bvh.depth() >= MIDPOINT_MAX_DEPTH
+                );
+            } else {
+                assert!(bvh.nodes.iter().all(|n| !n.is_leaf() || n.count as usize <= SAH_MAX_LEAF));
+            }
+        }
+    }
+}
+
+#[test]
+fn sah_beats_midpoint() {
+    let boxes = random_boxes(20000, 7);
+    let mid = Bvh::build(&boxes, BvhQuality::Midpoint).sah_cost();
+    let sah = Bvh::build(&boxes, BvhQuality::Sah).sah_cost();
+    assert!(sah < mid, "sah {sah} vs midpoint {mid}");
+}
+
+#[test]
+fn degenerate_inputs() {
+    // Empty input, identical boxes, and NaN / empty boxes that must be left out.
+    for q in [BvhQuality::Midpoint, BvhQuality::Sah] {
+        let empty = Bvh::build(&[], q);
+        assert!(empty.nodes.is_empty());
+        let ray = Ray::new(Vec3::ZERO, Vec3::X);
+        assert_eq!(empty.intersect(&ray, 0.0, f32::INFINITY, |_, _| Some(1.0)), f32::INFINITY);
+
+        let same = vec![Aabb::new(Vec3::ZERO, Vec3::ONE); 1000];
+        check_invariants(&Bvh::build(&same, q), &same, 1000);
+
+        let mut mixed = random_boxes(300, 3);
+        mixed[5] = Aabb::new(Vec3::splat(f32::NAN), Vec3::splat(f32::NAN));
+        mixed[6] = Aabb::EMPTY;
+        mixed[7] = Aabb::new(Vec3::ZERO, Vec3::new(f32::INFINITY, 1.0, 1.0));
+        let bvh = Bvh::build(&mixed, q);
+        check_invariants(&bvh, &mixed, 297);
+        assert!(!bvh.prim_indices.contains(&5) && !bvh.prim_indices.contains(&6) && !bvh.prim_indices.contains(&7));
+    }
+}
+
+#[test]
+fn huge_coordinates_still_give_small_leaves() {
+    // Doubled centroids overflow to +inf on x and coincide on y and z: no binned split
+    // exists, the build must still split (the wide layout holds at most 32 per leaf).
+    let mut boxes: Vec<Aabb> = (0..40).map(|i| Aabb::new(Vec3::new(i as f32, 0.0, 0.0), Vec3::new(i as f32 + 1.0, 1.0, 1.0))).collect();
+    boxes.extend((0..40).map(|_| Aabb::new(Vec3::new(3e38, 0.0, 0.0), Vec3::new(3.1e38, 1.0, 1.0))));
+    let bvh = Bvh::build(&boxes, BvhQuality::Sah);
+    check_invariants(&bvh, &boxes, boxes.len());
+    assert!(bvh.nodes.iter().all(|n| !n.is_leaf() || n.count as usize <= SAH_MAX_LEAF));
+}
+
+#[test]
+fn parallel_build_is_deterministic() {
+    let boxes = random_boxes(100_000, 11);
+    let a = Bvh::build(&boxes, BvhQuality::Sah);
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+    let b = pool.install(|| Bvh::build(&boxes, BvhQuality::Sah));
+    assert_eq!(a.nodes, b.nodes);
+    assert_eq!(a.prim_indices, b.prim_indices);
+    check_invariants(&a, &boxes, boxes.len());
+}
+
+#[test]
+fn parallel_top_flattens_to_the_sequential_layout() {
+    // The `Part` tree of the parallel build, flattened, is node for node the tree the
+    // sequential build lays out: children adjacent, indices relocated right.
+    let boxes = random_boxes(50_000, 13);
+    let indices: Vec<u32> = (0..boxes.len() as u32).collect();
+    let (nodes, prims) = build_sah(&indices, |i| boxes[i as usize]);
+    let mut refs: Vec<PrimRef> =
+        boxes.iter().enumerate().map(|(i, b)| PrimRef { min: b.min.into(), index: i as u32, max: b.max.into(), _pad: 0 }).collect();
+    let bounds = Bounds::of(&refs);
+    let mut seq = vec![BvhNode::default()];
+    build_sah_into(&mut seq, 0, &mut refs, &bounds, 0, 0);
+    assert!(nodes.len() > 1000);
+    assert_eq!(nodes, seq);
+    assert_eq!(prims, refs.iter().map(|p| p.index).collect::<Vec<_>>());
+}
+
+#[test]
+fn traversal_finds_the_closest_box_hit() {
+    // Primitives are the boxes themselves: the closest entry distance must match brute force.
+    let boxes = random_boxes(3000, 5);
+    let mut rng = rand_pcg::Pcg32::seed_from_u64(99);
+    for q in [BvhQuality::Midpoint, BvhQuality::Sah] {
+        let bvh = Bvh::build(&boxes, q);
+        for _ in 0..500 {
+            let o = Vec3::new(rng.random_range(-15.0..15.0), rng.random_range(-15.0..15.0), rng.random_range(-15.0..15.0));
+            let d = Vec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0));
+            let ray = Ray::new(o, d);
+            let hit = |p: u32, t_max: f32| boxes[p as usize].intersect(&ray, 0.0, t_max).map(|(t0, _)| t0).filter(|&t| t < t_max);
+            let brute = (0..boxes.len() as u32).fold(f32::INFINITY, |best, p| hit(p, best).unwrap_or(best));
+            assert_eq!(bvh.intersect(&ray, 0.0, f32::INFINITY, hit), brute);
+            assert_eq!(bvh.occluded(&ray, 0.0, f32::INFINITY, |p, t| hit(p, t).is_some()), brute.is_finite());
+        }
+    }
+}

@@ -1,0 +1,181 @@
+//! Tests of the wide BVH. Test fixtures build meshes through the course types above
+//! the seam (the only imports upward, in tests only).
+
+use super::collapse::*;
+use super::*;
+use crate::accel::Accel;
+use crate::geometry::{MeshAccel, TriangleMesh};
+use rand::{Rng, SeedableRng};
+
+/// Random small triangles in a cube, a few of them degenerate.
+fn random_mesh(n: usize, seed: u64) -> TriangleMesh {
+    let mut rng = rand_pcg::Pcg32::seed_from_u64(seed);
+    let mut vertices = Vec::new();
+    for i in 0..n {
+        let c = Vec3::new(rng.random_range(-10.0..10.0), rng.random_range(-10.0..10.0), rng.random_range(-10.0..10.0));
+        let mut v = || c + Vec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0));
+        let (a, b) = (v(), v());
+        // Every 50th triangle has two equal vertices: zero area, left out.
+        let c2 = if i % 50 == 0 { b } else { v() };
+        vertices.extend([a, b, c2]);
+    }
+    let triangles = (0..n as u32).map(|i| [3 * i, 3 * i + 1, 3 * i + 2]).collect();
+    TriangleMesh::new(vertices, Vec::new(), triangles)
+}
+
+/// The SAH cost of a wide tree as the plan counts it: wide nodes and leaves by the
+/// half area of their box.
+fn wide_sah_cost(w: &WideBvh, root_area: f32) -> f32 {
+    let lane_area = |n: &Node8, lane: usize| {
+        crate::math::aabb::Aabb::new(
+            Vec3::new(n.lo[0][lane], n.lo[1][lane], n.lo[2][lane]),
+            Vec3::new(n.hi[0][lane], n.hi[1][lane], n.hi[2][lane]),
+        )
+        .half_area()
+    };
+    let mut cost = if w.root & LEAF == 0 { root_area * WIDE_NODE_COST } else { root_area * leaf_blocks(w.root).len() as f32 };
+    for n in &w.nodes {
+        for (lane, &code) in n.child.iter().enumerate().filter(|(_, &c)| c != EMPTY) {
+            let per_area = if code & LEAF == 0 { WIDE_NODE_COST } else { leaf_blocks(code).len() as f32 };
+            cost += lane_area(n, lane) * per_area;
+        }
+    }
+    cost
+}
+
+/// The SAH cost of the greedy collapse (each wide node opens its largest interior
+/// child until it has eight), the one the plan replaced.
+fn greedy_cost(bvh: &Bvh, index: usize) -> f32 {
+    let node = &bvh.nodes[index];
+    let area = |k: usize| bvh.nodes[k].aabb().half_area();
+    if node.is_leaf() {
+        return area(index) * node.count.div_ceil(4) as f32;
+    }
+    let first = node.left_first as usize;
+    let mut kids = vec![first, first + 1];
+    while kids.len() < 8 {
+        let open = kids.iter().enumerate().filter(|(_, &k)| !bvh.nodes[k].is_leaf()).max_by(|a, b| area(*a.1).total_cmp(&area(*b.1)));
+        let Some((i, &k)) = open else { break };
+        let c = bvh.nodes[k].left_first as usize;
+        kids[i] = c;
+        kids.push(c + 1);
+    }
+    area(index) * WIDE_NODE_COST + kids.iter().map(|&k| greedy_cost(bvh, k)).sum::<f32>()
+}
+
+#[test]
+fn the_collapse_builds_the_planned_tree_and_beats_the_greedy_one() {
+    for (n, seed) in [(3, 1), (40, 2), (5_000, 3), (20_000, 4)] {
+        let mesh = random_mesh(n, seed);
+        let valid: Vec<u32> = (0..n as u32).filter(|i| i % 50 != 0).collect();
+        let bvh = Bvh::build_sah(&valid, |i| {
+            let [a, b, c] = mesh.triangle_vertices(i);
+            crate::math::aabb::Aabb::new(a.min(b).min(c), a.max(b).max(c))
+        });
+        let plan = Plan::new(&bvh);
+        let w = WideBvh::from_bvh(&bvh, &mesh);
+        let root_area = bvh.nodes[0].aabb().half_area();
+        let built = wide_sah_cost(&w, root_area);
+        assert!((built - plan.cost).abs() <= 1e-4 * plan.cost, "{n} triangles: built {built}, planned {}", plan.cost);
+        assert!((w.sah_cost() * root_area - built).abs() <= 1e-4 * built, "{n} triangles: reported {}", w.sah_cost());
+        let greedy = greedy_cost(&bvh, 0);
+        assert!(plan.cost <= greedy * (1.0 + 1e-5), "{n} triangles: planned {} > greedy {greedy}", plan.cost);
+        if n >= 5_000 {
+            assert!(plan.cost < 0.99 * greedy, "{n} triangles: planned {} not below greedy {greedy}", plan.cost);
+        }
+    }
+}
+
+/// Rays starting on a triangle (t = 0) that lies on a face of its leaf's box: the ULP
+/// widening must keep the box when its far distance is -0.0 (origin x -0.0, going
+/// down x out of the box) and its near one +0.0.
+#[test]
+fn rays_starting_on_an_axis_aligned_triangle_hit_it_at_zero_on_every_level() {
+    // A triangle in the plane x = 0 with one at x = 0.5 beside it (one leaf, its box
+    // from x = 0 to 0.5), and far ones so the tree has inner nodes.
+    let vertices = vec![
+        Vec3::new(0.0, -1.0, -1.0),
+        Vec3::new(0.0, 1.0, -1.0),
+        Vec3::new(0.0, 0.0, 1.0),
+        Vec3::new(0.5, 2.0, 2.0),
+        Vec3::new(0.5, 3.0, 2.0),
+        Vec3::new(0.5, 2.0, 3.0),
+    ];
+    let mut vertices = vertices;
+    let mut rng = rand_pcg::Pcg32::seed_from_u64(5);
+    for _ in 0..60 {
+        let c = Vec3::new(rng.random_range(5.0..20.0), rng.random_range(-5.0..5.0), rng.random_range(-5.0..5.0));
+        vertices.extend([c, c + Vec3::X, c + Vec3::Y]);
+    }
+    let triangles = (0..vertices.len() as u32 / 3).map(|i| [3 * i, 3 * i + 1, 3 * i + 2]).collect();
+    let mut mesh = TriangleMesh::new(vertices, Vec::new(), triangles);
+    mesh.build_accel(Accel::BvhSah);
+    let MeshAccel::Wide(w) = mesh.accel() else { panic!("bvh-sah builds a wide BVH") };
+    assert!(w.root & LEAF == 0, "the test needs box tests");
+    let mut checked = 0;
+    for ox in [0.0f32, -0.0] {
+        for dx in [1.0f32, -1.0, 1e-3, -1e-3] {
+            for t_min in [0.0f32, -0.0] {
+                let ray = Ray::new(Vec3::new(ox, 0.0, 0.0), Vec3::new(dx, 0.25, 0.5));
+                let want = mesh.intersect_brute_force(&ray, t_min, f32::INFINITY);
+                assert!(want.is_some_and(|h| h.t == 0.0 && h.prim == 0), "brute force hits triangle 0 at t = 0");
+                for level in SimdLevel::available() {
+                    let mut w = w.clone();
+                    w.set_level(level);
+                    let got = w.intersect(&ray, t_min, f32::INFINITY);
+                    assert_eq!(got.map(|h| (h.t, h.prim)), Some((0.0, 0)), "{level:?}, origin x {ox:?}, dx {dx:?}, t_min {t_min:?}");
+                    assert!(w.occluded(&ray, t_min, f32::INFINITY));
+                    checked += 1;
+                }
+            }
+        }
+    }
+    assert!(checked >= 32);
+}
+
+#[test]
+fn collapsed_nodes_bound_their_children_in_decreasing_area_order() {
+    let mut mesh = random_mesh(20_000, 9);
+    mesh.build_accel(Accel::BvhSah);
+    let MeshAccel::Wide(w) = mesh.accel() else { panic!("bvh-sah builds a wide BVH") };
+    let lane_box = |n: &Node8, lane: usize| {
+        crate::math::aabb::Aabb::new(
+            Vec3::new(n.lo[0][lane], n.lo[1][lane], n.lo[2][lane]),
+            Vec3::new(n.hi[0][lane], n.hi[1][lane], n.hi[2][lane]),
+        )
+    };
+    let contains = |outer: &crate::math::aabb::Aabb, p: Vec3| outer.min.cmple(p).all() && outer.max.cmpge(p).all();
+    let mut seen = vec![0u32; 20_000];
+    for node in &w.nodes {
+        let used = node.child.iter().take_while(|&&c| c != EMPTY).count();
+        assert!(used >= 2 && node.child[used..].iter().all(|&c| c == EMPTY), "children first: {:?}", node.child);
+        for lane in 1..used {
+            assert!(lane_box(node, lane - 1).half_area() >= lane_box(node, lane).half_area(), "lanes by decreasing area");
+        }
+        for lane in used..8 {
+            assert!(lane_box(node, lane).min.x > lane_box(node, lane).max.x, "empty lanes hold an inverted box");
+        }
+        for lane in 0..used {
+            let b = lane_box(node, lane);
+            let code = node.child[lane];
+            if code & LEAF == 0 {
+                let kid = &w.nodes[code as usize / std::mem::size_of::<Node8>()];
+                for k in kid.child.iter().enumerate().filter(|(_, &c)| c != EMPTY).map(|(k, _)| k) {
+                    let kb = lane_box(kid, k);
+                    assert!(contains(&b, kb.min) && contains(&b, kb.max), "a child box outside its parent's lane");
+                }
+            } else {
+                for block in &w.tris[leaf_blocks(code)] {
+                    for (l, &p) in block.prim.iter().enumerate().filter(|(_, &p)| p != EMPTY) {
+                        seen[p as usize] += 1;
+                        let v0 = Vec3::new(block.v0[0][l], block.v0[1][l], block.v0[2][l]);
+                        assert!(mesh.triangle_vertices(p).iter().all(|&v| contains(&b, v)) && contains(&b, v0));
+                    }
+                }
+            }
+        }
+    }
+    for (p, &count) in seen.iter().enumerate() {
+        assert_eq!(count, u32::from(p % 50 != 0), "triangle {p}: degenerate ones never, the others once");
+    }
+}

@@ -1,0 +1,53 @@
+//! The surface interaction: what every integrator and material reads of a hit.
+
+use crate::math::ray::{spawn_ray, spawn_ray_to, Ray};
+use glam::Vec3;
+
+/// Index of a material in its [`crate::Scene`].
+pub type MaterialId = u32;
+
+/// A surface interaction: built once, for the closest hit only.
+#[derive(Clone, Copy, Debug)]
+pub struct Hit {
+    /// Ray parameter.
+    pub t: f32,
+    /// Hit point, computed on the surface (from the barycentrics on a triangle, reprojected
+    /// on spheres and planes), not as `o + t·d`, whose error grows with `t`.
+    pub point: Vec3,
+    /// A conservative bound on the error of `point` on each axis: the true surface point
+    /// lies within `point ± point_error`. Rays leaving the surface start outside that box
+    /// ([`Hit::spawn_ray`], [`Hit::spawn_ray_to`]; pbrt-v4 §6.8).
+    pub point_error: Vec3,
+    /// Shading normal, facing the incoming ray.
+    pub normal: Vec3,
+    /// Geometric normal, facing the incoming ray.
+    pub geometric_normal: Vec3,
+    /// Index of the object.
+    pub object: u32,
+    /// Triangle index within a mesh (0 for other geometries).
+    pub prim: u32,
+    /// Barycentrics on a triangle (0 otherwise).
+    pub u: f32,
+    /// Barycentrics on a triangle (0 otherwise).
+    pub v: f32,
+    /// The material at the hit.
+    pub material: MaterialId,
+}
+
+impl Hit {
+    /// The ray leaving the hit in direction `w`, its origin offset off the surface by the
+    /// point's error bound (pbrt-v4 `SpawnRay`), `t` from 0: it cannot hit this surface at
+    /// the hit point again.
+    #[must_use]
+    pub fn spawn_ray(&self, w: Vec3) -> Ray {
+        spawn_ray(self.point, self.point_error, self.geometric_normal, w)
+    }
+
+    /// The shadow ray from the hit to `target` (pbrt-v4 `SpawnRayTo`): unit direction, and
+    /// the `t_max` that stops it just short of the target. `None` when the target is not
+    /// finite or is the origin itself.
+    #[must_use]
+    pub fn spawn_ray_to(&self, target: Vec3) -> Option<(Ray, f32)> {
+        spawn_ray_to(self.point, self.point_error, self.geometric_normal, target)
+    }
+}
