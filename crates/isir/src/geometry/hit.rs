@@ -22,6 +22,10 @@ pub struct Hit {
     pub normal: Vec3,
     /// Geometric normal, facing the incoming ray.
     pub geometric_normal: Vec3,
+    /// True when the ray arrived on the side the surface's own normal points to (the
+    /// outside of a sphere or of a consistently wound closed mesh): a ray entering a
+    /// transparent object, rather than leaving it.
+    pub front_face: bool,
     /// Index of the object.
     pub object: u32,
     /// Triangle index within a mesh (0 for other geometries).

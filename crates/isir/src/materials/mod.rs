@@ -1,20 +1,64 @@
-//! Materials: `shade` returns the BRDF value for a light sample (the course's
-//! `Material::shade`); each kind documents exactly what it returns.
+//! Materials: what each returns to the course's integrators (`shade`, the BRDF value for a
+//! light sample) and to the path tracer (`eval`, `sample`, `pdf`, in one stated
+//! contract below). Each kind documents exactly what it returns.
+//!
+//! # The path tracer's contract (pbrt-v4 `BSDF`, Mitsuba 3 `BSDF`)
+//! All directions are unit vectors pointing away from the surface: `wo` towards where
+//! the light goes (the previous vertex), `wi` towards where it comes from. The shading
+//! normal is `hit.normal`, which faces `wo`'s side.
+//! - [`Material::eval`]`(hit, wo, wi)` is the BRDF `f(wo, wi)` (no cosine); zero for the
+//!   delta lobes of [`Material::Mirror`] and [`Material::Transparent`].
+//! - [`Material::pdf`]`(hit, wo, wi)` is the solid-angle density with which
+//!   [`Material::sample`] returns `wi`; zero for delta lobes.
+//! - [`Material::sample`]`(hit, wo, u_lobe, u)` draws `wi` and returns
+//!   [`BsdfSample::weight`] `= f(wo, wi)·|cos θi| / pdf(wi)` (for a delta lobe: the
+//!   lobe's reflectance or transmittance, e.g. 1 for the mirror), or `None` when no
+//!   direction is drawn (the path ends).
 
 use crate::geometry::Hit;
 use crate::lights::LightSample;
-use crate::math::color::Color;
+use crate::math::color::{Color, BLACK, WHITE};
 use crate::math::ray::Ray;
+use crate::math::sampling::{square_to_cosine_hemisphere, square_to_cosine_hemisphere_pdf};
+use glam::{Vec2, Vec3};
+use std::f32::consts::FRAC_1_PI;
 
 pub use crate::geometry::MaterialId;
 
 /// The materials of the course (a closed set, dispatched by `match`).
 #[derive(Clone, Debug, PartialEq)]
 pub enum Material {
-    /// The course's `ColorMaterial`: returns its colour as the BRDF, without 1/π.
+    /// The course's `ColorMaterial`: returns its colour as the BRDF, without 1/π (so it is
+    /// not energy conserving). The path tracer treats it as [`Material::Lambert`] with
+    /// albedo = colour (`eval` = colour/π).
     Color(Color),
     /// Lambertian diffuse: `kd / π`.
     Lambert(Color),
+    /// A perfect mirror: all light along the reflection `2(n·wo)n - wo`. The course's
+    /// `MirrorMaterial`, handled by the Whitted integrator (its `shade` is black).
+    Mirror,
+    /// A smooth dielectric of index `ior` (outside: 1): reflection with probability given
+    /// by Fresnel `kr = (Rs + Rp)/2`, refraction otherwise, total internal reflection past
+    /// the critical angle. The course's `TransparentMaterial` (ior 1.3), handled by the
+    /// Whitted integrator (its `shade` is black). Radiance is not scaled by `η²` on
+    /// refraction, as the course does not.
+    Transparent {
+        /// Index of refraction inside.
+        ior: f32,
+    },
+}
+
+/// A direction drawn by [`Material::sample`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BsdfSample {
+    /// The incoming direction (unit, away from the surface).
+    pub wi: Vec3,
+    /// `f(wo, wi)·|cos θi| / pdf`; for a delta lobe, its reflectance or transmittance.
+    pub weight: Color,
+    /// The solid-angle pdf of `wi`; 0 for a delta lobe.
+    pub pdf: f32,
+    /// True for a delta lobe (mirror, glass): no light sampling can find this direction.
+    pub delta: bool,
 }
 
 impl Material {
@@ -23,16 +67,148 @@ impl Material {
     pub fn flat_color(&self) -> Color {
         match self {
             Material::Color(c) | Material::Lambert(c) => *c,
+            Material::Mirror | Material::Transparent { .. } => WHITE,
         }
     }
 
-    /// The BRDF value for light arriving along `light.direction` and leaving towards the
-    /// ray's origin.
+    /// The course's `shade(ray, hit, lightSample)`: the BRDF value for light arriving along
+    /// `light.direction` and leaving towards the ray's origin.
     #[must_use]
     pub fn shade(&self, _ray: &Ray, _hit: &Hit, _light: &LightSample) -> Color {
         match self {
             Material::Color(c) => *c,
-            Material::Lambert(kd) => *kd * std::f32::consts::FRAC_1_PI,
+            Material::Lambert(kd) => *kd * FRAC_1_PI,
+            Material::Mirror | Material::Transparent { .. } => BLACK,
         }
+    }
+
+    /// True when every lobe is a delta (mirror, glass): `eval` and `pdf` are zero and only
+    /// `sample` finds the light.
+    #[must_use]
+    pub fn is_delta(&self) -> bool {
+        matches!(self, Material::Mirror | Material::Transparent { .. })
+    }
+
+    /// The BRDF `f(wo, wi)` (see the module's contract).
+    #[must_use]
+    pub fn eval(&self, hit: &Hit, wo: Vec3, wi: Vec3) -> Color {
+        let n = hit.normal;
+        if n.dot(wo) <= 0.0 || n.dot(wi) <= 0.0 {
+            return BLACK;
+        }
+        match self {
+            Material::Color(c) | Material::Lambert(c) => *c * FRAC_1_PI,
+            Material::Mirror | Material::Transparent { .. } => BLACK,
+        }
+    }
+
+    /// The solid-angle pdf with which [`Material::sample`] draws `wi`.
+    #[must_use]
+    pub fn pdf(&self, hit: &Hit, wo: Vec3, wi: Vec3) -> f32 {
+        let n = hit.normal;
+        if n.dot(wo) <= 0.0 {
+            return 0.0;
+        }
+        match self {
+            Material::Color(_) | Material::Lambert(_) => square_to_cosine_hemisphere_pdf(n, wi),
+            Material::Mirror | Material::Transparent { .. } => 0.0,
+        }
+    }
+
+    /// Draw `wi` from `u_lobe` (which lobe) and `u` (where in it), uniform in `[0, 1)`.
+    #[must_use]
+    pub fn sample(&self, hit: &Hit, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
+        let n = hit.normal;
+        let cos_o = n.dot(wo);
+        if cos_o <= 0.0 {
+            return None;
+        }
+        match self {
+            Material::Color(c) | Material::Lambert(c) => {
+                let wi = square_to_cosine_hemisphere(n, u);
+                let pdf = square_to_cosine_hemisphere_pdf(n, wi);
+                // f·cos/pdf = (c/π)·cos / (cos/π) = c.
+                (pdf > 0.0).then_some(BsdfSample { wi, weight: *c, pdf, delta: false })
+            }
+            Material::Mirror => Some(BsdfSample { wi: reflect(wo, n), weight: WHITE, pdf: 0.0, delta: true }),
+            Material::Transparent { ior } => {
+                // The relative index across the surface, as the ray crosses it.
+                let eta = if hit.front_face { *ior } else { 1.0 / *ior };
+                let kr = fresnel_dielectric(cos_o, eta);
+                match refract(wo, n, eta) {
+                    Some(wt) if u_lobe >= kr => Some(BsdfSample { wi: wt, weight: WHITE, pdf: 0.0, delta: true }),
+                    _ => Some(BsdfSample { wi: reflect(wo, n), weight: WHITE, pdf: 0.0, delta: true }),
+                }
+            }
+        }
+    }
+}
+
+/// The mirror direction of `wo` about `n`: `2(n·wo)n - wo`.
+#[must_use]
+pub fn reflect(wo: Vec3, n: Vec3) -> Vec3 {
+    2.0 * n.dot(wo) * n - wo
+}
+
+/// The direction refracted from `wo` (on `n`'s side, unit) into a medium whose index,
+/// relative to `wo`'s side, is `eta` (Snell: `sin θt = sin θo / eta`); `None` past the
+/// critical angle (total internal reflection).
+#[must_use]
+pub fn refract(wo: Vec3, n: Vec3, eta: f32) -> Option<Vec3> {
+    let cos_o = n.dot(wo);
+    let sin2_t = (1.0 - cos_o * cos_o).max(0.0) / (eta * eta);
+    if sin2_t >= 1.0 {
+        return None;
+    }
+    let cos_t = (1.0 - sin2_t).sqrt();
+    Some((-wo / eta + (cos_o / eta - cos_t) * n).normalize())
+}
+
+/// The unpolarised Fresnel reflectance of a smooth dielectric, `kr = (Rs + Rp) / 2`, for
+/// light arriving at `cos_i` (> 0) from the side whose relative index to the other is
+/// `eta` (other / this); 1 past the critical angle.
+#[must_use]
+pub fn fresnel_dielectric(cos_i: f32, eta: f32) -> f32 {
+    let cos_i = cos_i.clamp(0.0, 1.0);
+    let sin2_t = (1.0 - cos_i * cos_i) / (eta * eta);
+    if sin2_t >= 1.0 {
+        return 1.0;
+    }
+    let cos_t = (1.0 - sin2_t).sqrt();
+    let rs = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+    let rp = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+    0.5 * (rs * rs + rp * rp)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fresnel_at_normal_incidence_and_past_the_critical_angle() {
+        // ((n - 1)/(n + 1))² at normal incidence: 0.04 for n = 1.5.
+        assert!((fresnel_dielectric(1.0, 1.5) - 0.04).abs() < 1e-6);
+        // From glass (1.5) to air the critical angle is asin(1/1.5) = 41.8°.
+        let eta = 1.0 / 1.5;
+        assert!(fresnel_dielectric(30f32.to_radians().cos(), eta) < 1.0);
+        assert_eq!(fresnel_dielectric(45f32.to_radians().cos(), eta), 1.0);
+        assert!(refract(Vec3::new(45f32.to_radians().sin(), 45f32.to_radians().cos(), 0.0), Vec3::Y, eta).is_none());
+        // Grazing incidence reflects everything.
+        assert!(fresnel_dielectric(1e-4, 1.5) > 0.99);
+    }
+
+    #[test]
+    fn refraction_obeys_snell() {
+        let n = Vec3::Y;
+        let theta_o = 35f32.to_radians();
+        let wo = Vec3::new(theta_o.sin(), theta_o.cos(), 0.0);
+        let wt = refract(wo, n, 1.3).unwrap();
+        let sin_t = (wt - wt.dot(n) * n).length();
+        assert!((theta_o.sin() - 1.3 * sin_t).abs() < 1e-5, "sin θo = η sin θt");
+        assert!(wt.dot(n) < 0.0 && wt.x < 0.0, "through the surface, on the other side of the normal");
+        assert!((wt.length() - 1.0).abs() < 1e-6);
+        // The reversed path: a ray travelling along -wt leaves along wo.
+        let back = refract(wt, -n, 1.0 / 1.3).unwrap();
+        assert!((back - wo).length() < 1e-5, "{back} vs {wo}");
     }
 }

@@ -80,6 +80,7 @@ impl Scene {
             point_error,
             normal: face(normal),
             geometric_normal: face(geometric),
+            front_face: ray.direction.dot(geometric) <= 0.0,
             object: i as u32,
             prim,
             u,
