@@ -30,9 +30,12 @@ fn every_builtin_scene_renders_something() {
         let img = render(name, 48, 32, 1);
         let distinct: std::collections::HashSet<[u32; 3]> =
             img.pixels.iter().map(|c| [c.x.to_bits(), c.y.to_bits(), c.z.to_bits()]).collect();
-        assert!(distinct.len() > 20, "{name}: only {} distinct colours", distinct.len());
-        assert!(img.pixels.iter().filter(|&&c| c != GREY).count() > img.pixels.len() / 2, "{name} is mostly background");
-        assert!(img.pixels.iter().all(|c| c.is_finite()), "{name} has non-finite pixels");
+        // TP1's sphere alone covers a few percent of the image; the rooms most of it.
+        let tp1 = name.starts_with("tp1-");
+        assert!(distinct.len() > if tp1 { 10 } else { 20 }, "{name}: only {} distinct colours", distinct.len());
+        let min_covered = if tp1 { img.pixels.len() / 50 } else { img.pixels.len() / 2 };
+        assert!(img.pixels.iter().filter(|&&c| c != GREY).count() > min_covered, "{name} is mostly background");
+        assert!(img.pixels.iter().all(|c| c.is_finite() && c.min_element() >= 0.0), "{name} has non-finite or negative pixels");
     }
 }
 

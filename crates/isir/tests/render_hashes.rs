@@ -37,6 +37,13 @@ fn render_hash(name: &str, accel: Accel) -> u64 {
 
 /// (scene, acceleration structure, hash of its 64×48, 2 spp render).
 const TABLE: &[(&str, Accel, u64)] = &[
+    ("tp1-sphere", Accel::BvhSah, 0xa30859d76b1d13b0),
+    ("tp1-sphere-cam1", Accel::BvhSah, 0xa8aee7ad0c37e088),
+    ("tp1-sphere-cam2", Accel::BvhSah, 0x39caa0b66c68f394),
+    ("tp1-sphere-cam3", Accel::BvhSah, 0x674f71b70bc0038c),
+    ("tp1-sphere-cam4", Accel::BvhSah, 0x3550f86eab626425),
+    ("tp2-plane-point", Accel::BvhSah, 0x5a54349fbb5398bd),
+    ("tp3-quad-soft", Accel::BvhSah, 0x86354c4ace55d77b),
     ("tp4-sphere-flat", Accel::BvhSah, 0x19d2a3cf95412bd8),
     ("tp4-sphere", Accel::BvhSah, 0xd3771cbf8bdb4a29),
     ("tp4-bunny", Accel::BvhSah, 0x81ccbed896a6c2c6),

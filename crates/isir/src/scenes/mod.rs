@@ -7,11 +7,14 @@
 //! `scene/`: the seam stays free of upward imports.
 
 mod description;
+mod tp1;
+mod tp2;
+mod tp4;
 
 pub use description::{CameraDesc, MeshSource, ObjectDesc, SceneDescription, ShapeDesc, MAX_COORDINATE};
 
 use crate::error::{Error, Result};
-use crate::geometry::{Plane, Shading};
+use crate::geometry::{Plane, Shading, Sphere};
 use crate::integrators::Integrator;
 use crate::io::obj::{self, LoadedMesh};
 use crate::lights::Light;
@@ -19,6 +22,7 @@ use crate::materials::Material;
 use crate::math::color::{BLUE, CYAN, GREEN, GREY, MAGENTA, RED, WHITE, YELLOW};
 use glam::Vec3;
 use std::path::Path;
+use tp4::{tp4_conference, tp4_room};
 
 /// The models shipped with the library: name, OBJ bytes (gzip when the name of the
 /// original ends in `.gz`), MTL bytes.
@@ -77,7 +81,19 @@ pub fn list() -> Vec<(&'static str, String)> {
     NAMES.iter().map(|&n| (n, builtin(n).map(|d| d.summary).unwrap_or_default())).collect()
 }
 
-const NAMES: [&str; 4] = ["tp4-sphere-flat", "tp4-sphere", "tp4-bunny", "tp4-conference"];
+const NAMES: &[&str] = &[
+    "tp1-sphere",
+    "tp1-sphere-cam1",
+    "tp1-sphere-cam2",
+    "tp1-sphere-cam3",
+    "tp1-sphere-cam4",
+    "tp2-plane-point",
+    "tp3-quad-soft",
+    "tp4-sphere-flat",
+    "tp4-sphere",
+    "tp4-bunny",
+    "tp4-conference",
+];
 
 /// The scene rendered when none is named.
 pub const DEFAULT_SCENE: &str = "tp4-bunny";
@@ -88,6 +104,29 @@ pub const DEFAULT_SCENE: &str = "tp4-bunny";
 /// [`Error::UnknownScene`] when there is none.
 pub fn builtin(name: &str) -> Result<SceneDescription> {
     match name {
+        "tp1-sphere" => Ok(tp1::sphere(name, CameraDesc::new(Vec3::ZERO, Vec3::Z), "TP1: a blue sphere, ray cast, camera at the origin")),
+        "tp1-sphere-cam1" => Ok(tp1::sphere(
+            name,
+            CameraDesc::new(Vec3::new(0.0, 0.0, -2.0), Vec3::new(0.0, 0.0, 79.0)),
+            "TP1 camera 1: moved back to (0,0,-2), looking at (0,0,79)",
+        )),
+        "tp1-sphere-cam2" => Ok(tp1::sphere(
+            name,
+            CameraDesc::new(Vec3::new(1.0, 0.0, 0.0), Vec3::new(1.0, 0.0, 1.0)),
+            "TP1 camera 2: at (1,0,0) looking along +z (the sphere moves right: +x is left)",
+        )),
+        "tp1-sphere-cam3" => Ok(tp1::sphere(
+            name,
+            CameraDesc::new(Vec3::new(0.0, 1.0, 0.0), Vec3::new(0.0, 1.0, 1.0)),
+            "TP1 camera 3: at (0,1,0) looking along +z (the sphere moves down)",
+        )),
+        "tp1-sphere-cam4" => Ok(tp1::sphere(
+            name,
+            CameraDesc::new(Vec3::new(4.0, -1.0, 0.0), Vec3::new(-1.0, -1.0, 2.0)),
+            "TP1 camera 4: at (4,-1,0) looking at (-1,-1,2)",
+        )),
+        "tp2-plane-point" => Ok(tp2::plane_point(name)),
+        "tp3-quad-soft" => Ok(tp2::quad_soft(name)),
         "tp4-sphere-flat" => Ok(tp4_room(
             name,
             "uvsphere",
@@ -112,64 +151,6 @@ pub fn builtin(name: &str) -> Result<SceneDescription> {
         "tp4-conference" => Ok(tp4_conference()),
         _ => Err(Error::UnknownScene(name.to_string())),
     }
-}
-
-/// TP4 Annex A: six coloured infinite planes, a cyan mesh, a point light.
-fn tp4_room(name: &str, model: &'static str, shading: Shading, camera: Vec3, summary: &str) -> SceneDescription {
-    let mut d = SceneDescription::new(name, CameraDesc::new(camera, Vec3::new(0.0, 0.0, 79.0)));
-    d.summary = summary.to_string();
-    for (n, c) in [
-        ("RedColor", RED),
-        ("GreenColor", GREEN),
-        ("BlueColor", BLUE),
-        ("GreyColor", GREY),
-        ("MagentaColor", MAGENTA),
-        ("YellowColor", YELLOW),
-        ("CyanColor", CYAN),
-    ] {
-        d.materials.push((n.to_string(), Material::Color(c)));
-    }
-    d.objects.push(ObjectDesc {
-        name: format!("{model}_defaultobject"),
-        shape: ShapeDesc::Mesh { source: MeshSource::Builtin(model), shading },
-        material: Some("CyanColor".into()),
-    });
-    let planes = [
-        ("PlaneGround", Vec3::new(0.0, -3.0, 0.0), Vec3::Y, "GreyColor"),
-        ("PlaneLeft", Vec3::new(5.0, 0.0, 0.0), -Vec3::X, "RedColor"),
-        ("PlaneCeiling", Vec3::new(0.0, 7.0, 0.0), -Vec3::Y, "GreenColor"),
-        ("PlaneRight", Vec3::new(-5.0, 0.0, 0.0), Vec3::X, "BlueColor"),
-        ("PlaneFront", Vec3::new(0.0, 0.0, 10.0), -Vec3::Z, "MagentaColor"),
-        ("PlaneRear", Vec3::new(0.0, 0.0, -10.0), Vec3::Z, "YellowColor"),
-    ];
-    for (n, p, normal, m) in planes {
-        d.objects.push(ObjectDesc { name: n.to_string(), shape: ShapeDesc::Plane(Plane::new(p, normal)), material: Some(m.to_string()) });
-    }
-    d.lights.push(Light::Point { position: Vec3::new(0.0, 3.0, -5.0), color: WHITE, power: 100.0 });
-    d.integrator = Integrator::DirectLighting { light_samples: 1 };
-    d.spp = 4;
-    d
-}
-
-/// TP4 figure 2: the conference room under a quad light.
-fn tp4_conference() -> SceneDescription {
-    let mut d = SceneDescription::new("tp4-conference", CameraDesc::new(Vec3::new(-250.0, 500.0, 330.0), Vec3::new(0.0, 350.0, 100.0)));
-    d.summary = "TP4 figure 2: conference.obj (331,179 triangles) under a quad light, soft shadows".into();
-    d.objects.push(ObjectDesc {
-        name: "conference".into(),
-        shape: ShapeDesc::Mesh { source: MeshSource::Builtin("conference"), shading: Shading::Smooth },
-        material: None,
-    });
-    d.lights.push(Light::Quad {
-        corner: Vec3::new(900.0, 600.0, -300.0),
-        u: Vec3::new(-800.0, 0.0, 0.0),
-        v: Vec3::new(0.0, 0.0, 300.0),
-        color: WHITE,
-        power: 20.0,
-    });
-    d.integrator = Integrator::DirectLighting { light_samples: 8 };
-    d.spp = 4;
-    d
 }
 
 #[cfg(test)]
