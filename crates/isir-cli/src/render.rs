@@ -4,6 +4,7 @@ use crate::{threads_phrase, warn_all, with_threads};
 use anyhow::Context;
 use clap::{Args, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
+use isir::aov::{render_aov, Aov};
 use isir::scenes::{CameraDesc, MeshSource, ObjectDesc, SceneDescription, ShapeDesc};
 use isir::triangle::TriangleTest;
 use isir::{Accel, Display, Integrator, Renderer, Scene};
@@ -54,6 +55,18 @@ pub struct RenderArgs {
     /// Use the watertight ray–triangle test (Woop et al.) instead of Möller–Trumbore.
     #[arg(long)]
     pub watertight: bool,
+    /// Also write these AOVs beside the image (`isir.cost.png` for `-o isir.png`):
+    /// albedo, normal, depth, or cost (a heat map of nodes visited + primitives tested per
+    /// pixel, with a colour bar). Repeat or separate with commas.
+    #[arg(long, value_delimiter = ',')]
+    pub aov: Vec<Aov>,
+}
+
+/// Where an AOV of the image `output` goes: `out.png` -> `out.cost.png`.
+fn aov_path(output: &std::path::Path, aov: Aov) -> PathBuf {
+    let stem = output.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    let ext = output.extension().map(|e| format!(".{}", e.to_string_lossy())).unwrap_or_default();
+    output.with_file_name(format!("{stem}.{}{ext}", aov.name()))
 }
 
 /// A scene for a mesh file: sRGB output; camera and light are placed by [`frame`] once the
@@ -102,6 +115,9 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     // Every check before any work (the output's directory is writable, too).
     isir::image::check_size(a.width, a.height)?;
     isir::image::check_output_path(&a.output)?;
+    for &aov in &a.aov {
+        isir::image::check_output_path(&aov_path(&a.output, aov))?;
+    }
     anyhow::ensure!(a.spp != Some(0), "--spp must be at least 1");
     anyhow::ensure!(a.light_samples != Some(0), "--light-samples must be at least 1");
     with_threads(a.threads, || render_in_pool(&a))?
@@ -154,5 +170,21 @@ fn render_in_pool(a: &RenderArgs) -> anyhow::Result<()> {
         stats.mrays_per_second(),
         a.output.display()
     );
+    for &aov in &a.aov {
+        let (image, stats) = render_aov(&scene, &camera, a.width, a.height, aov);
+        let path = aov_path(&a.output, aov);
+        image.save(&path, Display::LinearClamp).with_context(|| format!("writing the {} AOV", aov.name()))?;
+        let detail = match aov {
+            Aov::Cost => format!(
+                " ({}: {:.1} nodes visited and {:.1} primitives tested per camera ray; colour bar 0 to {})",
+                accel.name(),
+                stats.nodes_per_ray,
+                stats.tests_per_ray,
+                stats.max_cost
+            ),
+            _ => String::new(),
+        };
+        println!("isir: {} AOV -> wrote {}{detail}", aov.name(), path.display());
+    }
     Ok(())
 }

@@ -524,3 +524,30 @@ fn bench_names_a_missing_or_failing_embree_tool() {
     one_line_error(code, &err, "cannot open mesh");
     assert!(err.contains(broken.to_str().unwrap()), "{err}");
 }
+
+#[test]
+fn aovs_are_written_beside_the_image_and_cost_reports_the_lesson() {
+    let out = tmp("aov.png");
+    let (code, stdout, err) = isir(&[
+        "render",
+        "tp4-sphere",
+        "-o",
+        out.to_str().unwrap(),
+        "--width",
+        "40",
+        "--height",
+        "30",
+        "--aov",
+        "cost,normal",
+        "--aov",
+        "depth",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    for (aov, h) in [("cost", 30 + 16), ("normal", 30), ("depth", 30)] {
+        let img = image::open(tmp(&format!("aov.{aov}.png"))).unwrap();
+        assert_eq!((img.width(), img.height()), (40, h), "{aov}");
+    }
+    assert!(stdout.contains("nodes visited") && stdout.contains("primitives tested per camera ray"), "{stdout}");
+    let (code, _, err) = isir(&["render", "tp4-sphere", "--aov", "bogus"]);
+    one_line_error(code, &err, "albedo");
+}

@@ -19,6 +19,7 @@
 #![warn(missing_docs)]
 
 // The course's nouns, above the seam.
+pub mod aov;
 pub mod camera;
 pub mod integrators;
 pub mod lights;

@@ -7,7 +7,7 @@ use std::path::Path;
 
 /// Layers from the top; a module may import its own layer and those after it.
 const LAYERS: &[&[&str]] = &[
-    &["renderer"],
+    &["renderer", "aov"],
     &["scenes"],
     &["io"],
     &["integrators"],

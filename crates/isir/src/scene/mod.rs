@@ -5,6 +5,7 @@
 //! code reads like the course; below it ([`crate::accel`]) it is laid out for speed. A
 //! scene is built from a [`crate::SceneDescription`] ([`crate::scenes`]).
 
+use crate::accel::wide::TraversalStats;
 use crate::geometry::{Geometry, Hit, TriangleMesh};
 use crate::lights::Light;
 use crate::materials::{Material, MaterialId};
@@ -98,6 +99,39 @@ impl Scene {
                 Geometry::Plane(p) => p.intersect(ray, t_min, t_max).is_some(),
                 Geometry::Mesh(m) => m.occluded(ray, t_min, t_max),
             })
+    }
+
+    /// What the closest-hit query along `ray` costs: nodes visited and primitives tested
+    /// (a sphere or a plane is one test), summed over the objects as
+    /// [`Scene::intersect`] meets them (`--aov cost`).
+    #[must_use]
+    pub fn cost(&self, ray: &Ray, t_min: f32, t_max: f32) -> TraversalStats {
+        let mut total = TraversalStats::default();
+        if !ray.is_valid() {
+            return total;
+        }
+        let mut t_best = t_max;
+        for o in &self.objects {
+            let t = match &o.geometry {
+                Geometry::Sphere(s) => {
+                    total.triangles += 1;
+                    s.intersect(ray, t_min, t_best)
+                }
+                Geometry::Plane(p) => {
+                    total.triangles += 1;
+                    p.intersect(ray, t_min, t_best)
+                }
+                Geometry::Mesh(m) => {
+                    let (h, c) = m.intersect_cost(ray, t_min, t_best);
+                    total = total + c;
+                    h.map(|h| h.t)
+                }
+            };
+            if let Some(t) = t {
+                t_best = t;
+            }
+        }
+        total
     }
 
     /// The material of a hit.

@@ -17,6 +17,26 @@ impl Bvh {
         t_max
     }
 
+    /// [`Bvh::intersect`], counting the nodes visited into `nodes` (the cost shown by
+    /// `--aov cost`).
+    #[inline]
+    pub fn intersect_counting<F: FnMut(u32, f32) -> Option<f32>>(
+        &self,
+        ray: &Ray,
+        t_min: f32,
+        mut t_max: f32,
+        nodes: &mut u64,
+        mut hit_prim: F,
+    ) -> f32 {
+        self.walk_counting(ray, t_min, &mut t_max, nodes, |prim, t_max| {
+            if let Some(t) = hit_prim(prim, *t_max) {
+                *t_max = t;
+            }
+            false
+        });
+        t_max
+    }
+
     /// Any-hit traversal: true as soon as `hit_prim(prim, t_max)` says a primitive blocks
     /// the ray.
     #[inline]
@@ -27,7 +47,21 @@ impl Bvh {
 
     /// The traversal loop shared by both queries; `visit` returns true to stop.
     #[inline(always)]
-    fn walk<F: FnMut(u32, &mut f32) -> bool>(&self, ray: &Ray, t_min: f32, t_max: &mut f32, mut visit: F) -> bool {
+    fn walk<F: FnMut(u32, &mut f32) -> bool>(&self, ray: &Ray, t_min: f32, t_max: &mut f32, visit: F) -> bool {
+        // The count goes to a local that is never read: optimised away.
+        self.walk_counting(ray, t_min, t_max, &mut 0, visit)
+    }
+
+    /// [`Bvh::walk`], adding one to `nodes` for every node entered.
+    #[inline(always)]
+    fn walk_counting<F: FnMut(u32, &mut f32) -> bool>(
+        &self,
+        ray: &Ray,
+        t_min: f32,
+        t_max: &mut f32,
+        nodes: &mut u64,
+        mut visit: F,
+    ) -> bool {
         if self.nodes.is_empty() || !ray.is_valid() {
             return false;
         }
@@ -46,6 +80,7 @@ impl Bvh {
         let mut sp = 0;
         let mut node = &self.nodes[0];
         loop {
+            *nodes += 1;
             if node.is_leaf() {
                 let first = node.left_first as usize;
                 for &prim in &self.prim_indices[first..first + node.count as usize] {
