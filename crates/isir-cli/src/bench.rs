@@ -16,7 +16,7 @@ use std::process::Command;
 
 #[derive(Args, Debug)]
 pub struct BenchArgs {
-    /// A built-in scene (default tp4-conference) or an OBJ file.
+    /// A built-in scene (default tp4-conference) or a mesh file (.obj, .ply, optionally .gz).
     pub target: Option<String>,
     /// The Embree 3 tool (default: `embree3-bench` or `embree-bench` on PATH, then in
     /// ~/.cache/isir/, where tools/embree3-bench/build.sh puts it).
@@ -221,12 +221,22 @@ fn bench_in(
             std::fs::write(&p, isir::scenes::builtin_model_obj(model)?).with_context(|| format!("writing {}", p.display()))?;
             p
         }
-        MeshSource::File(path) if path.extension().is_some_and(|e| e == "gz") => {
+        MeshSource::File(path) if path.extension().is_some_and(|e| e == "obj") => path.clone(),
+        MeshSource::File(_) => {
+            // Compressed, or another format (PLY): the loaded mesh, written as OBJ (floats
+            // in their shortest exact form, so both engines trace the same triangles).
             let p = dir.join("mesh.obj");
-            std::fs::write(&p, isir::obj::read_file(path)?).with_context(|| format!("writing {}", p.display()))?;
+            let (_, mesh) = scene.meshes().next().context("the scene has no mesh")?;
+            let mut text = String::with_capacity(mesh.vertices.len() * 40 + mesh.triangles.len() * 24);
+            for v in &mesh.vertices {
+                text += &format!("v {:?} {:?} {:?}\n", v.x, v.y, v.z);
+            }
+            for t in &mesh.triangles {
+                text += &format!("f {} {} {}\n", t[0] + 1, t[1] + 1, t[2] + 1);
+            }
+            std::fs::write(&p, text).with_context(|| format!("writing {}", p.display()))?;
             p
         }
-        MeshSource::File(path) => path.clone(),
     };
     let threads = rayon::current_num_threads();
 

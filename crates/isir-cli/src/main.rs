@@ -17,7 +17,7 @@ struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Command {
-    /// Render a built-in scene (see `isir scenes`) or an OBJ file.
+    /// Render a built-in scene (see `isir scenes`) or a mesh file (OBJ or PLY).
     Render(render::RenderArgs),
     /// List the built-in scenes.
     Scenes,
@@ -53,13 +53,13 @@ pub fn threads_phrase(n: usize) -> String {
     }
 }
 
-/// A mesh argument: an OBJ file, or the name of a built-in model.
+/// A mesh argument: a mesh file (OBJ or PLY), or the name of a built-in model.
 pub fn load_mesh(arg: &std::path::Path) -> anyhow::Result<isir::obj::LoadedMesh> {
     let name = arg.to_string_lossy();
     if !arg.exists() && isir::scenes::builtin_models().contains(&name.as_ref()) {
         return Ok(isir::scenes::load_builtin_model(&name)?);
     }
-    Ok(isir::obj::load_obj(arg)?)
+    Ok(isir::io::mesh::load_mesh(arg)?)
 }
 
 fn warn_all(warnings: &[String]) {

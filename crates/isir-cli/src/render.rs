@@ -22,7 +22,7 @@ pub enum IntegratorArg {
 
 #[derive(Args, Debug)]
 pub struct RenderArgs {
-    /// A built-in scene name (`isir scenes`) or an OBJ file (.obj, .obj.gz).
+    /// A built-in scene name (`isir scenes`) or a mesh file (.obj, .ply, optionally .gz).
     pub scene: Option<String>,
     /// Output image: .png, or .exr for linear floats.
     #[arg(short, long, default_value = "isir.png")]
@@ -94,14 +94,14 @@ fn frame(path: &str, desc: &mut SceneDescription, scene: &mut Scene) -> anyhow::
     Ok(())
 }
 
-/// A built-in scene by name, or a scene around an OBJ file, built on the current pool.
+/// A built-in scene by name, or a scene around a mesh file, built on the current pool.
 pub fn build_scene(name: &str, accel: Accel, test: TriangleTest) -> anyhow::Result<(SceneDescription, Scene)> {
     match isir::scenes::builtin(name) {
         Ok(d) => {
             let scene = d.build_with(accel, test)?;
             Ok((d, scene))
         }
-        Err(_) if std::path::Path::new(name).exists() || name.ends_with(".obj") || name.ends_with(".gz") => {
+        Err(_) if std::path::Path::new(name).exists() || name.ends_with(".obj") || name.ends_with(".ply") || name.ends_with(".gz") => {
             let mut d = file_scene(name);
             let mut scene = d.build_with(accel, test)?;
             frame(name, &mut d, &mut scene)?;

@@ -12,7 +12,7 @@ use std::time::Instant;
 
 #[derive(Args, Debug)]
 pub struct RaysArgs {
-    /// A built-in scene (`isir scenes`) or an OBJ file.
+    /// A built-in scene (`isir scenes`) or a mesh file (OBJ or PLY).
     pub scene: String,
     /// Which ray set (primary, diffuse, shadow).
     #[arg(long)]
@@ -33,7 +33,7 @@ pub struct RaysArgs {
 
 #[derive(Args, Debug)]
 pub struct TraceArgs {
-    /// Mesh: an OBJ file (.obj, .obj.gz) or a built-in model (uvsphere, Bunny, conference).
+    /// Mesh: a mesh file (.obj, .ply, optionally .gz) or a built-in model (uvsphere, Bunny, conference).
     pub mesh: PathBuf,
     /// Ray file (docs/RAYS.md).
     pub rays: PathBuf,

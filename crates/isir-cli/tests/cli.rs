@@ -551,3 +551,30 @@ fn aovs_are_written_beside_the_image_and_cost_reports_the_lesson() {
     let (code, _, err) = isir(&["render", "tp4-sphere", "--aov", "bogus"]);
     one_line_error(code, &err, "albedo");
 }
+
+#[test]
+fn a_ply_file_renders_and_its_errors_name_the_element() {
+    // A binary PLY quad.
+    let ply = tmp("quad.ply");
+    let mut bytes = b"ply\nformat binary_little_endian 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n\
+element face 1\nproperty list uchar int vertex_indices\nend_header\n"
+        .to_vec();
+    for f in [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 1.0, 0.0] {
+        bytes.extend(f.to_le_bytes());
+    }
+    bytes.push(4);
+    for i in 0..4i32 {
+        bytes.extend(i.to_le_bytes());
+    }
+    std::fs::write(&ply, &bytes).unwrap();
+    let png = tmp("quad-ply.png");
+    let (code, out, err) = isir(&["render", ply.to_str().unwrap(), "-o", png.to_str().unwrap(), "--width", "32", "--height", "24"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("quad.ply") && png.exists(), "{out}");
+    let (code, _, err) = isir(&["render", tmp("missing.ply").to_str().unwrap()]);
+    one_line_error(code, &err, "missing.ply");
+    // Cut short: an error naming the file and the element.
+    std::fs::write(&ply, &bytes[..bytes.len() - 6]).unwrap();
+    let (code, _, err) = isir(&["render", ply.to_str().unwrap()]);
+    one_line_error(code, &err, "quad.ply: element 'face' (1 declared)");
+}

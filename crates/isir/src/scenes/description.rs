@@ -9,7 +9,7 @@ use crate::error::{Error, Result};
 use crate::geometry::{Geometry, Plane, Shading, Sphere};
 use crate::integrators::Integrator;
 use crate::io::image::Display;
-use crate::io::obj;
+use crate::io::mesh;
 use crate::lights::Light;
 use crate::materials::{Material, MaterialId};
 use crate::math::aabb::Aabb;
@@ -108,7 +108,7 @@ fn check_extent(what: &str, magnitude: f32) -> Result<()> {
 /// Where a mesh comes from.
 #[derive(Clone, Debug, PartialEq)]
 pub enum MeshSource {
-    /// An OBJ file (`.obj` or `.obj.gz`).
+    /// A mesh file: OBJ or PLY, optionally gzip-compressed (see [`crate::io::mesh`]).
     File(PathBuf),
     /// A model shipped inside the library (see [`crate::scenes::load_builtin_model`]).
     Builtin(&'static str),
@@ -246,7 +246,7 @@ impl SceneDescription {
                 }
                 ShapeDesc::Mesh { source, shading } => {
                     let loaded = match source {
-                        MeshSource::File(path) => obj::load_obj(path)?,
+                        MeshSource::File(path) => mesh::load_mesh(path)?,
                         MeshSource::Builtin(name) => crate::scenes::load_builtin_model(name)?,
                     };
                     warnings.extend(loaded.warnings.iter().map(|w| format!("{}: {w}", desc.name)));

@@ -23,7 +23,11 @@ pub(super) const UNSUPPORTED: [(&str, &str); 15] = [
 ];
 
 pub(super) fn unsupported(format: &str) -> String {
-    format!("{format} meshes are not supported yet (isir reads Wavefront OBJ only: .obj or .obj.gz)")
+    if format == "PLY" {
+        // Read by `io::mesh::load_mesh` (and the isir command), not by the OBJ reader.
+        return "PLY meshes are not OBJ: read them with isir::io::mesh::load_mesh".into();
+    }
+    format!("{format} meshes are not supported yet (isir reads Wavefront OBJ and PLY, optionally gzip-compressed: .obj, .ply, .obj.gz, .ply.gz)")
 }
 
 /// `s`, or its first and last 80 characters around a `…` when it is long: a message

@@ -64,7 +64,7 @@ pub struct LoadedMesh {
 
 /// The input limits from the environment (see [`ReadLimits::from_env`]), or an error
 /// naming `path` and the bad variable.
-fn env_limits(path: &Path) -> Result<ReadLimits> {
+pub(crate) fn env_limits(path: &Path) -> Result<ReadLimits> {
     ReadLimits::from_env().map_err(|message| Error::Input { path: path.to_path_buf(), message })
 }
 
@@ -91,12 +91,31 @@ pub fn load_obj(path: &Path) -> Result<LoadedMesh> {
 /// # Errors
 /// As [`load_obj`].
 pub fn load_obj_with(path: &Path, limits: &ReadLimits) -> Result<LoadedMesh> {
-    if let Some(format) = format_by_name(path) {
-        return Err(Error::Input { path: path.to_path_buf(), message: unsupported(format) });
-    }
+    check_name(path)?;
     let bytes = input::read_file(path, limits)?;
+    parse_obj_beside(path, &bytes, limits)
+}
+
+/// Refuse a file whose name says it is another mesh format (`model.stl`, `scene.glb`...),
+/// before anything is read.
+///
+/// # Errors
+/// The format the name says, as not read by isir (or, for PLY, not by the OBJ reader).
+pub fn check_name(path: &Path) -> Result<()> {
+    match format_by_name(path) {
+        Some(format) => Err(Error::Input { path: path.to_path_buf(), message: unsupported(format) }),
+        None => Ok(()),
+    }
+}
+
+/// Parse the OBJ bytes of the file `path`, its `mtllib` files looked up beside it within
+/// `limits` (what [`load_obj_with`] does once it has read the file).
+///
+/// # Errors
+/// As [`parse_obj`].
+pub fn parse_obj_beside(path: &Path, bytes: &[u8], limits: &ReadLimits) -> Result<LoadedMesh> {
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    parse_obj(path, &bytes, |mtl| {
+    parse_obj(path, bytes, |mtl| {
         let p = dir.join(mtl);
         let not_found = |e: &Error| matches!(e, Error::Io { source, .. } if source.kind() == std::io::ErrorKind::NotFound);
         match input::read_file(&p, limits) {

@@ -1,0 +1,41 @@
+//! Mesh files of any format isir reads: Wavefront OBJ ([`crate::io::obj`]) and PLY
+//! ([`crate::io::ply`]), each optionally gzip-compressed (`.gz`). The format is known from
+//! the content first (a PLY file starts with the line `ply`), then from the name; formats
+//! isir does not read (STL, glTF, FBX...) are named as such.
+
+use crate::error::Result;
+use crate::io::input::{self, ReadLimits};
+use crate::io::obj::{self, LoadedMesh};
+use crate::io::ply;
+use std::path::Path;
+
+/// Load a mesh file, within the input limit from the environment (`ISIR_MAX_INPUT_BYTES`,
+/// see [`crate::io::input`]).
+///
+/// # Errors
+/// The file cannot be read, is of a format isir does not read, or is malformed: the error
+/// names the file and, where there is one, the line.
+pub fn load_mesh(path: &Path) -> Result<LoadedMesh> {
+    load_mesh_with(path, &obj::env_limits(path)?)
+}
+
+/// [`load_mesh`] with explicit input limits.
+///
+/// # Errors
+/// As [`load_mesh`].
+pub fn load_mesh_with(path: &Path, limits: &ReadLimits) -> Result<LoadedMesh> {
+    let name = path.file_name().map(|n| n.to_string_lossy().to_ascii_lowercase()).unwrap_or_default();
+    let name = name.strip_suffix(".gz").unwrap_or(&name);
+    if name.ends_with(".ply") {
+        return ply::parse_ply(path, &input::read_file(path, limits)?);
+    }
+    if !name.ends_with(".obj") {
+        // Another format named by its extension is refused before anything is read.
+        obj::check_name(path)?;
+    }
+    let bytes = input::read_file(path, limits)?;
+    if ply::is_ply(&bytes) {
+        return ply::parse_ply(path, &bytes);
+    }
+    obj::parse_obj_beside(path, &bytes, limits)
+}

@@ -1,0 +1,265 @@
+//! PLY meshes (Greg Turk's polygon file format): ASCII and binary, either byte order,
+//! through `ply-rs-bw`, read into typed vertex and face records (no hash map per
+//! element) and checked before they become a [`TriangleMesh`].
+//!
+//! What is read: the `vertex` element's `x y z` (float or double), `nx ny nz` when all
+//! three are there, `u v` (or `s t`, `texture_u texture_v`); the `face` element's
+//! `vertex_indices` (or `vertex_index`) list, polygons split into fans. Other elements
+//! and properties are skipped.
+//!
+//! Bad input, case by case:
+//! - not PLY, a malformed header or body, a body cut short, fewer elements than the header
+//!   declares: an error naming the file and the line (ASCII) or what was being read;
+//! - no `vertex` element, or one without `x y z`: an error;
+//! - a face index that is negative or past the last vertex: an error naming the face;
+//! - faces of one or two vertices: dropped, counted in a warning;
+//! - NaN or infinite coordinates in a binary file, zero-area triangles: kept out of the
+//!   acceleration structures (never hit) and counted in a warning, as for OBJ files; in an
+//!   ASCII file `nan` or `inf` is not a number the PLY grammar knows: an error with the line;
+//! - memory: the header's counts only bound the reading; nothing is allocated for what the
+//!   file does not actually hold (at most 65,536 records ahead), and the file itself is
+//!   read within the input limit ([`crate::io::input`]).
+
+use crate::error::{Error, Result};
+use crate::geometry::TriangleMesh;
+use crate::io::obj::LoadedMesh;
+use glam::{Vec2, Vec3};
+use ply_rs_bw::parser::{Parser, Reader};
+use ply_rs_bw::ply::{PropertyAccess, PropertyAccessResult};
+use std::path::Path;
+
+/// One vertex record: the properties isir reads, and which of them were present.
+#[derive(Clone, Copy, Debug, Default)]
+struct Vertex {
+    p: [f32; 3],
+    n: [f32; 3],
+    uv: [f32; 2],
+    /// Bits 0–2: x, y, z; 3–5: nx, ny, nz; 6–7: u, v.
+    present: u8,
+}
+
+impl Vertex {
+    fn slot(name: &str) -> Option<usize> {
+        Some(match name {
+            "x" => 0,
+            "y" => 1,
+            "z" => 2,
+            "nx" => 3,
+            "ny" => 4,
+            "nz" => 5,
+            "u" | "s" | "texture_u" | "texture_s" => 6,
+            "v" | "t" | "texture_v" | "texture_t" => 7,
+            _ => return None,
+        })
+    }
+
+    fn set(&mut self, name: &str, value: f32) -> PropertyAccessResult {
+        let Some(i) = Self::slot(name) else { return PropertyAccessResult::Ignored };
+        match i {
+            0..=2 => self.p[i] = value,
+            3..=5 => self.n[i - 3] = value,
+            _ => self.uv[i - 6] = value,
+        }
+        self.present |= 1 << i;
+        PropertyAccessResult::Set
+    }
+}
+
+impl PropertyAccess for Vertex {
+    fn new() -> Self {
+        Self::default()
+    }
+    fn set_float(&mut self, name: &str, value: f32) -> PropertyAccessResult {
+        self.set(name, value)
+    }
+    fn set_double(&mut self, name: &str, value: f64) -> PropertyAccessResult {
+        self.set(name, value as f32)
+    }
+    fn set_char(&mut self, name: &str, value: i8) -> PropertyAccessResult {
+        self.set(name, f32::from(value))
+    }
+    fn set_uchar(&mut self, name: &str, value: u8) -> PropertyAccessResult {
+        self.set(name, f32::from(value))
+    }
+    fn set_short(&mut self, name: &str, value: i16) -> PropertyAccessResult {
+        self.set(name, f32::from(value))
+    }
+    fn set_ushort(&mut self, name: &str, value: u16) -> PropertyAccessResult {
+        self.set(name, f32::from(value))
+    }
+    fn set_int(&mut self, name: &str, value: i32) -> PropertyAccessResult {
+        self.set(name, value as f32)
+    }
+    fn set_uint(&mut self, name: &str, value: u32) -> PropertyAccessResult {
+        self.set(name, value as f32)
+    }
+}
+
+/// One face record: its vertex indices, widened so that negative ones can be reported.
+#[derive(Clone, Debug, Default)]
+struct Face {
+    indices: Vec<i64>,
+}
+
+impl Face {
+    fn set<T: Into<i64>>(&mut self, name: &str, values: Vec<T>) -> PropertyAccessResult {
+        if name != "vertex_indices" && name != "vertex_index" {
+            return PropertyAccessResult::Ignored;
+        }
+        self.indices = values.into_iter().map(Into::into).collect();
+        PropertyAccessResult::Set
+    }
+}
+
+impl PropertyAccess for Face {
+    fn new() -> Self {
+        Self::default()
+    }
+    fn set_list_char(&mut self, name: &str, v: Vec<i8>) -> PropertyAccessResult {
+        self.set(name, v)
+    }
+    fn set_list_uchar(&mut self, name: &str, v: Vec<u8>) -> PropertyAccessResult {
+        self.set(name, v)
+    }
+    fn set_list_short(&mut self, name: &str, v: Vec<i16>) -> PropertyAccessResult {
+        self.set(name, v)
+    }
+    fn set_list_ushort(&mut self, name: &str, v: Vec<u16>) -> PropertyAccessResult {
+        self.set(name, v)
+    }
+    fn set_list_int(&mut self, name: &str, v: Vec<i32>) -> PropertyAccessResult {
+        self.set(name, v)
+    }
+    fn set_list_uint(&mut self, name: &str, v: Vec<u32>) -> PropertyAccessResult {
+        self.set(name, v)
+    }
+}
+
+/// An element isir does not read: every property ignored.
+#[derive(Clone, Copy, Debug, Default)]
+struct Skip;
+
+impl PropertyAccess for Skip {
+    fn new() -> Self {
+        Skip
+    }
+}
+
+/// A parser message on one line: its first sentence and the line of the file it quotes
+/// (at most 80 characters), not the grammar's internals.
+fn short(s: &str) -> String {
+    let first = s.lines().next().unwrap_or("").trim();
+    let quoted = s.split_once("String: '").and_then(|(_, rest)| rest.split_once('\'')).map(|(q, _)| q.trim());
+    let cut = |q: &str| match q.char_indices().nth(80) {
+        Some((i, _)) => format!("{}…", &q[..i]),
+        None => q.to_string(),
+    };
+    match quoted {
+        Some(q) => format!("{first} ('{}')", cut(q)),
+        None => cut(first),
+    }
+}
+
+/// True when `bytes` start as a PLY file does.
+#[must_use]
+pub fn is_ply(bytes: &[u8]) -> bool {
+    bytes.starts_with(b"ply\n") || bytes.starts_with(b"ply\r\n")
+}
+
+/// Parse PLY bytes (already decompressed). `path` only names the source in messages.
+///
+/// # Errors
+/// See the module documentation: each case names `path` and, for ASCII files, the line.
+pub fn parse_ply(path: &Path, bytes: &[u8]) -> Result<LoadedMesh> {
+    let fail = |line: Option<usize>, message: String| Error::Mesh { path: path.to_path_buf(), line, message };
+    if !is_ply(bytes) {
+        return Err(fail(Some(1), "not a PLY file (it does not start with the line 'ply')".into()));
+    }
+    // The crate writes "Line N: ..."; the line goes to the error's own field, and only
+    // where it means something (the header, and the body of an ASCII file).
+    let parse_error = |what: &str, e: ply_rs_bw::parser::ParseError, lines: bool| {
+        let text = e.to_string();
+        let message = match e.line() {
+            Some(l) => text.strip_prefix(&format!("Line {l}: ")).unwrap_or(&text).to_string(),
+            None => text,
+        };
+        fail(e.line().filter(|_| lines), format!("{what}: {}", short(&message)))
+    };
+    let mut reader = Reader::new(bytes);
+    let header = Parser::<Skip>::new().read_header(&mut reader).map_err(|e| parse_error("header", e, true))?;
+    let ascii = header.encoding == ply_rs_bw::ply::Encoding::Ascii;
+    let mut vertices: Option<Vec<Vertex>> = None;
+    let mut faces: Vec<Face> = Vec::new();
+    for def in header.elements.values() {
+        let what = format!("element '{}' ({} declared)", def.name, def.count);
+        match def.name.as_str() {
+            "vertex" => {
+                vertices = Some(
+                    Parser::<Vertex>::new()
+                        .read_payload_for_element(&mut reader, def, &header)
+                        .map_err(|e| parse_error(&what, e, ascii))?,
+                )
+            }
+            "face" => {
+                faces =
+                    Parser::<Face>::new().read_payload_for_element(&mut reader, def, &header).map_err(|e| parse_error(&what, e, ascii))?
+            }
+            _ => {
+                Parser::<Skip>::new().read_payload_for_element(&mut reader, def, &header).map_err(|e| parse_error(&what, e, ascii))?;
+            }
+        }
+    }
+    let Some(vertices) = vertices else {
+        return Err(fail(None, "no 'vertex' element".into()));
+    };
+    if let Some(v) = vertices.first() {
+        if v.present & 0b111 != 0b111 {
+            return Err(fail(None, "the 'vertex' element has no x, y and z properties".into()));
+        }
+    }
+    let positions: Vec<Vec3> = vertices.iter().map(|v| Vec3::from(v.p)).collect();
+    let with_normals = vertices.first().is_some_and(|v| v.present & 0b111_000 == 0b111_000);
+    let normals: Vec<Vec3> = if with_normals { vertices.iter().map(|v| Vec3::from(v.n)).collect() } else { Vec::new() };
+    let with_uvs = vertices.first().is_some_and(|v| v.present & 0b1100_0000 == 0b1100_0000);
+    let mut triangles = Vec::with_capacity(faces.len());
+    let mut short = (0usize, 0usize); // (count, first face)
+    for (f, face) in faces.iter().enumerate() {
+        if let Some(&bad) = face.indices.iter().find(|&&i| i < 0 || i as u64 >= positions.len() as u64) {
+            return Err(fail(
+                None,
+                format!(
+                    "face {f} (0-based) refers to vertex {bad}, but there are {} vertices (0 to {})",
+                    positions.len(),
+                    positions.len() as i64 - 1
+                ),
+            ));
+        }
+        if face.indices.len() < 3 {
+            if short.0 == 0 {
+                short.1 = f;
+            }
+            short.0 += 1;
+            continue;
+        }
+        let i = &face.indices;
+        for k in 1..i.len() - 1 {
+            triangles.push([i[0] as u32, i[k] as u32, i[k + 1] as u32]);
+        }
+    }
+    let mut warnings = Vec::new();
+    if short.0 > 0 {
+        warnings.push(format!("{} faces with fewer than three vertices dropped (the first: face {})", short.0, short.1));
+    }
+    let mut mesh = TriangleMesh::new(positions, normals, triangles);
+    if with_uvs {
+        mesh.uvs = vertices.iter().map(|v| Vec2::from(v.uv)).collect();
+    }
+    let stats = mesh.stats();
+    if stats.triangles == 0 {
+        warnings.push("no triangles".into());
+    }
+    if stats.degenerate > 0 {
+        warnings.push(format!("{} degenerate triangles (zero area or non-finite vertices) are never hit", stats.degenerate));
+    }
+    Ok(LoadedMesh { mesh, materials: Vec::new(), warnings })
+}
