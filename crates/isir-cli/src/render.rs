@@ -101,7 +101,14 @@ pub fn build_scene(name: &str, accel: Accel, test: TriangleTest) -> anyhow::Resu
             let scene = d.build_with(accel, test)?;
             Ok((d, scene))
         }
-        Err(_) if std::path::Path::new(name).exists() || name.ends_with(".obj") || name.ends_with(".ply") || name.ends_with(".gz") => {
+        Err(_)
+            if std::path::Path::new(name).exists()
+                || name.ends_with(".obj")
+                || name.ends_with(".ply")
+                || name.ends_with(".gltf")
+                || name.ends_with(".glb")
+                || name.ends_with(".gz") =>
+        {
             let mut d = file_scene(name);
             let mut scene = d.build_with(accel, test)?;
             frame(name, &mut d, &mut scene)?;

@@ -578,3 +578,30 @@ element face 1\nproperty list uchar int vertex_indices\nend_header\n"
     let (code, _, err) = isir(&["render", ply.to_str().unwrap()]);
     one_line_error(code, &err, "quad.ply: element 'face' (1 declared)");
 }
+
+#[test]
+fn a_gltf_file_with_its_buffer_beside_it_renders() {
+    let bin = tmp("tri.bin");
+    let mut b = Vec::new();
+    for f in [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0] {
+        b.extend(f.to_le_bytes());
+    }
+    std::fs::write(&bin, &b).unwrap();
+    let gltf = tmp("tri.gltf");
+    std::fs::write(
+        &gltf,
+        "{\"asset\":{\"version\":\"2.0\"},\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"mesh\":0}],\
+         \"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0}}]}],\"buffers\":[{\"byteLength\":36,\"uri\":\"tri.bin\"}],\
+         \"bufferViews\":[{\"buffer\":0,\"byteLength\":36}],\
+         \"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\",\"min\":[0,0,0],\"max\":[1,1,0]}]}",
+    )
+    .unwrap();
+    let png = tmp("tri-gltf.png");
+    let (code, out, err) = isir(&["render", gltf.to_str().unwrap(), "-o", png.to_str().unwrap(), "--width", "32", "--height", "24"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("tri.gltf") && png.exists(), "{out}");
+    std::fs::remove_file(&bin).unwrap();
+    let (code, _, err) = isir(&["render", gltf.to_str().unwrap()]);
+    one_line_error(code, &err, "tri.gltf: buffer 0:");
+    assert!(err.contains("tri.bin"), "{err}");
+}

@@ -1,12 +1,13 @@
-//! Mesh files of any format isir reads: Wavefront OBJ ([`crate::io::obj`]) and PLY
-//! ([`crate::io::ply`]), each optionally gzip-compressed (`.gz`). The format is known from
-//! the content first (a PLY file starts with the line `ply`), then from the name; formats
-//! isir does not read (STL, glTF, FBX...) are named as such.
+//! Mesh files of any format isir reads: Wavefront OBJ ([`crate::io::obj`]), PLY
+//! ([`crate::io::ply`]) and glTF ([`crate::io::gltf`]), each optionally gzip-compressed
+//! (`.gz`). The format is known from the content first (a PLY file starts with the line
+//! `ply`, a GLB file with `glTF`, a glTF file is JSON), then from the name; formats isir
+//! does not read (STL, FBX...) are named as such.
 
 use crate::error::Result;
 use crate::io::input::{self, ReadLimits};
 use crate::io::obj::{self, LoadedMesh};
-use crate::io::ply;
+use crate::io::{gltf, ply};
 use std::path::Path;
 
 /// Load a mesh file, within the input limit from the environment (`ISIR_MAX_INPUT_BYTES`,
@@ -29,6 +30,9 @@ pub fn load_mesh_with(path: &Path, limits: &ReadLimits) -> Result<LoadedMesh> {
     if name.ends_with(".ply") {
         return ply::parse_ply(path, &input::read_file(path, limits)?);
     }
+    if name.ends_with(".gltf") || name.ends_with(".glb") {
+        return load_gltf(path, &input::read_file(path, limits)?, limits);
+    }
     if !name.ends_with(".obj") {
         // Another format named by its extension is refused before anything is read.
         obj::check_name(path)?;
@@ -37,5 +41,14 @@ pub fn load_mesh_with(path: &Path, limits: &ReadLimits) -> Result<LoadedMesh> {
     if ply::is_ply(&bytes) {
         return ply::parse_ply(path, &bytes);
     }
+    if gltf::is_glb(&bytes) || bytes.trim_ascii_start().starts_with(b"{") {
+        return load_gltf(path, &bytes, limits);
+    }
     obj::parse_obj_beside(path, &bytes, limits)
+}
+
+/// A glTF file's bytes, its external buffers read beside it within `limits`.
+fn load_gltf(path: &Path, bytes: &[u8], limits: &ReadLimits) -> Result<LoadedMesh> {
+    let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    gltf::parse_gltf(path, bytes, |uri| input::read_file(&dir.join(uri), limits))
 }

@@ -23,11 +23,14 @@ pub(super) const UNSUPPORTED: [(&str, &str); 15] = [
 ];
 
 pub(super) fn unsupported(format: &str) -> String {
-    if format == "PLY" {
+    if format == "PLY" || format.starts_with("glTF") {
         // Read by `io::mesh::load_mesh` (and the isir command), not by the OBJ reader.
-        return "PLY meshes are not OBJ: read them with isir::io::mesh::load_mesh".into();
+        return format!("{format} meshes are not OBJ: read them with isir::io::mesh::load_mesh");
     }
-    format!("{format} meshes are not supported yet (isir reads Wavefront OBJ and PLY, optionally gzip-compressed: .obj, .ply, .obj.gz, .ply.gz)")
+    format!(
+        "{format} meshes are not supported yet (isir reads Wavefront OBJ, PLY and glTF: .obj, .ply, .gltf, .glb, the first two \
+         optionally gzip-compressed)"
+    )
 }
 
 /// `s`, or its first and last 80 characters around a `…` when it is long: a message

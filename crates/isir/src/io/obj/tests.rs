@@ -337,20 +337,21 @@ fn gzip_files_are_bounded_and_read_whole() {
 
 #[test]
 fn other_mesh_formats_are_named_not_read() {
-    for (file, format) in [("m.gltf", "glTF"), ("m.glb", "glTF (binary .glb)"), ("m.stl", "STL"), ("m.fbx.gz", "FBX")] {
+    for (file, format) in [("m.stl", "STL"), ("m.fbx.gz", "FBX")] {
         // Refused by name, before anything is read.
         let e = load_obj(&Path::new("/nonexistent").join(file)).unwrap_err().to_string();
         assert_eq!(
             e,
             format!(
-                "/nonexistent/{file}: {format} meshes are not supported yet (isir reads Wavefront OBJ and PLY, optionally \
-                 gzip-compressed: .obj, .ply, .obj.gz, .ply.gz)"
+                "/nonexistent/{file}: {format} meshes are not supported yet (isir reads Wavefront OBJ, PLY and glTF: .obj, .ply, \
+                 .gltf, .glb, the first two optionally gzip-compressed)"
             )
         );
     }
-    for file in ["m.ply", "m.PLY.gz"] {
+    // Formats isir reads through `io::mesh`, but not as OBJ.
+    for (file, format) in [("m.ply", "PLY"), ("m.PLY.gz", "PLY"), ("m.gltf", "glTF"), ("m.glb", "glTF (binary .glb)")] {
         let e = load_obj(&Path::new("/nonexistent").join(file)).unwrap_err().to_string();
-        assert!(e.ends_with("PLY meshes are not OBJ: read them with isir::io::mesh::load_mesh"), "{e}");
+        assert!(e.ends_with(&format!("{format} meshes are not OBJ: read them with isir::io::mesh::load_mesh")), "{e}");
     }
     let mut stl = vec![b' '; 80];
     stl.extend(1u32.to_le_bytes());
@@ -358,10 +359,10 @@ fn other_mesh_formats_are_named_not_read() {
     let gltf = b"{\n  \"asset\": {\"version\": \"2.0\"}, \"meshes\": []\n}\n";
     for (bytes, format) in [
         (&b"ply\nformat ascii 1.0\nelement vertex 3\n"[..], "PLY meshes are not OBJ"),
-        (b"glTF\x02\0\0\0\x10\0\0\0", "glTF (binary .glb) meshes"),
+        (b"glTF\x02\0\0\0\x10\0\0\0", "glTF (binary .glb) meshes are not OBJ"),
         (&stl, "STL (binary) meshes"),
         (b"solid cube\n  facet normal 0 0 1\n", "STL (ASCII) meshes"),
-        (gltf, "glTF meshes"),
+        (gltf, "glTF meshes are not OBJ"),
         (b"Kaydara FBX Binary  \0\x1a\0", "FBX meshes"),
         (&gz(TRI.as_bytes()), "gzip-compressed data: name the file with a .gz ending"),
     ] {

@@ -1,0 +1,250 @@
+//! glTF 2.0 meshes, `.gltf` (JSON with its buffers beside it or in `data:` URIs) and
+//! `.glb` (binary), through the `gltf` crate: the default scene's node hierarchy with its
+//! transforms, indexed or not indexed triangles, normals, the first texture coordinates,
+//! and each material's base colour factor. Every node's mesh is placed in world space and
+//! the whole scene becomes one [`TriangleMesh`], one material slot per glTF material.
+//!
+//! Every accessor is checked before it is read (component type, dimensions, offsets and
+//! strides inside their buffer view and buffer, with overflow-checked arithmetic), so a
+//! malformed file is an error naming the file and the element, never a panic in the
+//! reader; buffers are read within the input limit ([`crate::io::input`]). Bad input,
+//! case by case:
+//! - invalid JSON or GLB, a validation failure, a missing or short buffer, an accessor
+//!   outside its data, a cycle in the node hierarchy, an index past the last vertex:
+//!   an error;
+//! - primitives that are not triangles (points, lines, strips, fans), sparse accessors and
+//!   base-colour textures: left out, counted in a warning (textures: the factor is used);
+//! - NaN coordinates, zero-area triangles: never hit, counted in a warning.
+
+use crate::error::{Error, Result};
+use crate::geometry::TriangleMesh;
+use crate::io::obj::{FileMaterial, LoadedMesh};
+use crate::math::color::Color;
+use base64::Engine;
+use glam::{Mat3, Mat4, Vec2, Vec3};
+use gltf::accessor::{DataType, Dimensions};
+use gltf::mesh::Mode;
+use std::path::Path;
+
+/// True when `bytes` are binary glTF.
+#[must_use]
+pub fn is_glb(bytes: &[u8]) -> bool {
+    bytes.starts_with(b"glTF")
+}
+
+/// Parse glTF bytes (`.gltf` JSON or `.glb`). `load_uri` returns the bytes of a buffer
+/// named by a relative URI (the file beside the glTF file); `path` names the source in
+/// messages.
+///
+/// # Errors
+/// See the module documentation.
+pub fn parse_gltf(path: &Path, bytes: &[u8], load_uri: impl Fn(&str) -> Result<Vec<u8>>) -> Result<LoadedMesh> {
+    let fail = |message: String| Error::Mesh { path: path.to_path_buf(), line: None, message };
+    let gltf = gltf::Gltf::from_slice(bytes).map_err(|e| match e {
+        gltf::Error::Deserialize(j) => Error::Mesh { path: path.to_path_buf(), line: Some(j.line()), message: format!("JSON: {j}") },
+        e => fail(format!("{e}")),
+    })?;
+    let doc = &gltf.document;
+    // ---- Buffers ----
+    let mut buffers: Vec<Vec<u8>> = Vec::new();
+    for b in doc.buffers() {
+        let data = match b.source() {
+            gltf::buffer::Source::Bin => {
+                gltf.blob.clone().ok_or_else(|| fail(format!("buffer {} is the GLB binary chunk, which is missing", b.index())))?
+            }
+            gltf::buffer::Source::Uri(uri) => match uri.strip_prefix("data:") {
+                Some(rest) => {
+                    let (_, payload) =
+                        rest.split_once(";base64,").ok_or_else(|| fail(format!("buffer {}: a data URI that is not base64", b.index())))?;
+                    base64::engine::general_purpose::STANDARD
+                        .decode(payload)
+                        .map_err(|e| fail(format!("buffer {}: bad base64 in its data URI: {e}", b.index())))?
+                }
+                None => load_uri(&percent_decode(uri)).map_err(|e| fail(format!("buffer {}: {e}", b.index())))?,
+            },
+        };
+        if data.len() < b.length() {
+            return Err(fail(format!("buffer {} holds {} bytes where the file declares {}", b.index(), data.len(), b.length())));
+        }
+        buffers.push(data);
+    }
+    // ---- Materials: one slot each, and a last one for primitives without a material ----
+    let materials: Vec<FileMaterial> = doc
+        .materials()
+        .map(|m| {
+            let [r, g, b, _] = m.pbr_metallic_roughness().base_color_factor();
+            let c = Color::new(r, g, b);
+            let diffuse = if c.is_finite() { c.clamp(Vec3::ZERO, Vec3::ONE) } else { Vec3::ONE };
+            FileMaterial { name: m.name().map_or_else(|| format!("material{}", m.index().unwrap_or(0)), str::to_string), diffuse }
+        })
+        .collect();
+    let textured = doc.materials().filter(|m| m.pbr_metallic_roughness().base_color_texture().is_some()).count();
+    // ---- The default scene's nodes, in world space ----
+    let scene = doc.default_scene().or_else(|| doc.scenes().next());
+    let mut vertices = Vec::new();
+    let mut normals = Vec::new();
+    let mut uvs = Vec::new();
+    let mut triangles = Vec::new();
+    let mut slots = Vec::new();
+    let (mut all_normals, mut all_uvs) = (true, true);
+    let mut skipped_modes = 0usize;
+    let mut sparse = 0usize;
+    let mut seen = vec![false; doc.nodes().len()];
+    let mut stack: Vec<(gltf::Node, Mat4)> = scene.map(|s| s.nodes().map(|n| (n, Mat4::IDENTITY)).collect()).unwrap_or_default();
+    while let Some((node, parent)) = stack.pop() {
+        if std::mem::replace(&mut seen[node.index()], true) {
+            return Err(fail(format!("node {} appears twice in the scene's hierarchy (a cycle, or a shared child)", node.index())));
+        }
+        let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
+        if !world.is_finite() {
+            return Err(fail(format!("node {}: its transform is not finite", node.index())));
+        }
+        stack.extend(node.children().map(|c| (c, world)));
+        let Some(mesh) = node.mesh() else { continue };
+        let normal_matrix = Mat3::from_mat4(world).inverse().transpose();
+        for prim in mesh.primitives() {
+            if prim.mode() != Mode::Triangles {
+                skipped_modes += 1;
+                continue;
+            }
+            let what = format!("mesh {} primitive {}", mesh.index(), prim.index());
+            let get = |b: gltf::Buffer| buffers.get(b.index()).map(Vec::as_slice);
+            let Some(pos) = prim.get(&gltf::Semantic::Positions) else {
+                return Err(fail(format!("{what} has no POSITION")));
+            };
+            if pos.sparse().is_some() {
+                sparse += 1;
+                continue;
+            }
+            check_accessor(&pos, &buffers, &[DataType::F32], Dimensions::Vec3).map_err(|m| fail(format!("{what} POSITION: {m}")))?;
+            let reader = prim.reader(get);
+            let base = vertices.len() as u64;
+            let count = pos.count() as u64;
+            if base + count > u64::from(u32::MAX) {
+                return Err(fail(format!("{what}: more than 2^32 vertices in all")));
+            }
+            vertices.extend(reader.read_positions().into_iter().flatten().map(|p| world.transform_point3(Vec3::from(p))));
+            match prim.get(&gltf::Semantic::Normals) {
+                Some(n)
+                    if n.sparse().is_none()
+                        && check_accessor(&n, &buffers, &[DataType::F32], Dimensions::Vec3).is_ok()
+                        && n.count() == pos.count() =>
+                {
+                    normals
+                        .extend(reader.read_normals().into_iter().flatten().map(|n| (normal_matrix * Vec3::from(n)).normalize_or_zero()));
+                }
+                _ => all_normals = false,
+            }
+            match prim.get(&gltf::Semantic::TexCoords(0)) {
+                Some(t)
+                    if t.sparse().is_none()
+                        && check_accessor(&t, &buffers, &[DataType::F32], Dimensions::Vec2).is_ok()
+                        && t.count() == pos.count() =>
+                {
+                    uvs.extend(reader.read_tex_coords(0).into_iter().flat_map(|t| t.into_f32()).map(Vec2::from));
+                }
+                _ => all_uvs = false,
+            }
+            let first = triangles.len();
+            match prim.indices() {
+                Some(ind) => {
+                    if ind.sparse().is_some() {
+                        sparse += 1;
+                        continue;
+                    }
+                    check_accessor(&ind, &buffers, &[DataType::U8, DataType::U16, DataType::U32], Dimensions::Scalar)
+                        .map_err(|m| fail(format!("{what} indices: {m}")))?;
+                    let idx: Vec<u32> = reader.read_indices().map(|r| r.into_u32().collect()).unwrap_or_default();
+                    if let Some(&bad) = idx.iter().find(|&&i| u64::from(i) >= count) {
+                        return Err(fail(format!("{what}: index {bad} past its {count} vertices")));
+                    }
+                    triangles.extend(idx.chunks_exact(3).map(|t| [t[0] + base as u32, t[1] + base as u32, t[2] + base as u32]));
+                }
+                None => triangles.extend((0..count / 3).map(|t| {
+                    let i = base as u32 + 3 * t as u32;
+                    [i, i + 1, i + 2]
+                })),
+            }
+            let slot = prim.material().index().map_or(materials.len(), |i| i.min(materials.len())) as u32;
+            slots.extend(std::iter::repeat_n(slot, triangles.len() - first));
+        }
+    }
+    let mut warnings = Vec::new();
+    if skipped_modes > 0 {
+        warnings.push(format!("{skipped_modes} primitives that are not triangle lists (points, lines, strips, fans) left out"));
+    }
+    if sparse > 0 {
+        warnings.push(format!("{sparse} primitives with sparse accessors left out (not read yet)"));
+    }
+    if textured > 0 {
+        warnings.push(format!("{textured} materials with a base-colour texture: their colour factor is used (textures are not read yet)"));
+    }
+    let mut mesh = TriangleMesh::new(vertices, if all_normals { normals } else { Vec::new() }, triangles);
+    mesh.material_slots = slots;
+    if all_uvs && !uvs.is_empty() {
+        mesh.uvs = uvs;
+    }
+    let stats = mesh.stats();
+    if stats.triangles == 0 {
+        warnings.push("no triangles".into());
+    }
+    if stats.degenerate > 0 {
+        warnings.push(format!("{} degenerate triangles (zero area or non-finite vertices) are never hit", stats.degenerate));
+    }
+    Ok(LoadedMesh { mesh, materials, warnings })
+}
+
+/// Check that `a` is of one of `types` with `dims`, not normalized, and lies inside its
+/// buffer view and buffer (what the `gltf` reader assumes without checking).
+fn check_accessor(a: &gltf::Accessor, buffers: &[Vec<u8>], types: &[DataType], dims: Dimensions) -> std::result::Result<(), String> {
+    if !types.contains(&a.data_type()) || a.dimensions() != dims {
+        return Err(format!("accessor {} is {:?} {:?}, expected {dims:?} of {types:?}", a.index(), a.dimensions(), a.data_type()));
+    }
+    if a.normalized() {
+        return Err(format!("accessor {} is normalized integers, expected floats", a.index()));
+    }
+    let view = a.view().ok_or_else(|| format!("accessor {} has no buffer view", a.index()))?;
+    if a.count() == 0 {
+        return Err(format!("accessor {} is empty", a.index()));
+    }
+    let size = a.size();
+    let stride = view.stride().unwrap_or(size);
+    if stride < size {
+        return Err(format!("buffer view {}: stride {stride} is less than the element size {size}", view.index()));
+    }
+    let inside_view = (a.count() - 1).checked_mul(stride).and_then(|x| x.checked_add(size)).and_then(|x| x.checked_add(a.offset()));
+    if inside_view.is_none_or(|end| end > view.length()) {
+        return Err(format!(
+            "accessor {}: {} elements from offset {} overrun its buffer view of {} bytes",
+            a.index(),
+            a.count(),
+            a.offset(),
+            view.length()
+        ));
+    }
+    let buffer = buffers.get(view.buffer().index()).map_or(0, Vec::len);
+    if view.offset().checked_add(view.length()).is_none_or(|end| end > buffer) {
+        return Err(format!("buffer view {} overruns its buffer of {buffer} bytes", view.index()));
+    }
+    Ok(())
+}
+
+/// `%20` and the like in a relative URI, decoded (invalid escapes kept as written).
+fn percent_decode(uri: &str) -> String {
+    let b = uri.as_bytes();
+    let mut out = Vec::with_capacity(b.len());
+    let mut i = 0;
+    while i < b.len() {
+        let hex = |c: u8| (c as char).to_digit(16);
+        if b[i] == b'%' && i + 2 < b.len() {
+            if let (Some(h), Some(l)) = (hex(b[i + 1]), hex(b[i + 2])) {
+                out.push((h * 16 + l) as u8);
+                i += 3;
+                continue;
+            }
+        }
+        out.push(b[i]);
+        i += 1;
+    }
+    String::from_utf8_lossy(&out).into_owned()
+}
