@@ -97,7 +97,7 @@ pub(super) fn li(
         if depth > ROULETTE_DEPTH {
             // Survive with probability max(β) (capped at 1) and carry 1/p more: unbiased.
             let p = beta.max_element().min(1.0);
-            if !(sampler.next_f32() < p) {
+            if p.is_nan() || sampler.next_f32() >= p {
                 break;
             }
             beta /= p;
@@ -127,7 +127,7 @@ fn next_event(
         let mut acc = Color::ZERO;
         for _ in 0..n {
             let ls = light.sample(hit.point, sampler.next_2d());
-            if ls.radiance == Color::ZERO || !(ls.pdf > 0.0) {
+            if ls.radiance == Color::ZERO || ls.pdf.is_nan() || ls.pdf <= 0.0 {
                 continue;
             }
             let f = material.eval(hit, wo, ls.direction);

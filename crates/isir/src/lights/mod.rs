@@ -124,7 +124,7 @@ impl Light {
         let Light::Quad { corner, u, v, .. } = *self else { return None };
         let c = u.cross(v);
         let area = c.length();
-        if !(area > 0.0) {
+        if area.is_nan() || area <= 0.0 {
             return None;
         }
         let n = c / area;
