@@ -143,6 +143,9 @@ fn render_in_pool(a: &RenderArgs) -> anyhow::Result<()> {
         integrator = integrator.with_light_samples(n);
     }
     if let Some(d) = a.max_depth {
+        if !matches!(integrator, Integrator::Whitted { .. } | Integrator::Path { .. }) {
+            warn_all(&[format!("--max-depth has no effect on the {} integrator (only on whitted and path)", integrator.name())]);
+        }
         integrator = integrator.with_max_depth(d);
     }
     warn_all(&integrator.warnings(&scene));

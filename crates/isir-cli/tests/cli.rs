@@ -332,6 +332,11 @@ fn integrator_and_max_depth_errors_name_the_option() {
     }
     let (code, _, err) = isir(&["render", "tp4-sphere", "--max-depth", "two"]);
     one_line_error(code, &err, "--max-depth");
+    // Given to an integrator without bounces: said, not silently ignored.
+    let png = tmp("depth.png");
+    let (code, _, err) = isir(&["render", "tp4-sphere", "--width", "8", "--height", "8", "--max-depth", "3", "-o", png.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains("isir: warning: --max-depth has no effect on the direct integrator"), "{err}");
 }
 
 #[test]
