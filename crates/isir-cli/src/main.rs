@@ -177,7 +177,10 @@ mod tests {
         let err = |args: &[&str]| clap_error_line(&Cli::try_parse_from(args).unwrap_err());
         assert_eq!(err(&["isir", "trace"]), "the following required arguments were not provided: <MESH>, <RAYS>");
         let e = err(&["isir", "render", "--integrator", "raycast"]);
-        assert!(e.contains("'raycast'") && e.contains("[possible values: ray-cast, direct]") && e.contains("'ray-cast'"), "{e}");
+        assert!(
+            e.contains("'raycast'") && e.contains("[possible values: ray-cast, direct, whitted, path]") && e.contains("'ray-cast'"),
+            "{e}"
+        );
         let e = err(&["isir", "render", "--widht", "3"]);
         assert!(e.contains("'--widht'") && e.contains("'--width'") && !e.contains("Usage"), "{e}");
     }

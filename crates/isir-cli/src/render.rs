@@ -5,6 +5,7 @@ use anyhow::Context;
 use clap::{Args, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 use isir::aov::{render_aov, Aov};
+use isir::integrators::MAX_DEPTH_LIMIT;
 use isir::scenes::{CameraDesc, MeshSource, ObjectDesc, SceneDescription, ShapeDesc};
 use isir::triangle::TriangleTest;
 use isir::{Accel, Display, Integrator, Renderer, Scene};
@@ -18,6 +19,10 @@ pub enum IntegratorArg {
     RayCast,
     /// Direct lighting with shadow rays.
     Direct,
+    /// Whitted: mirror and glass recursion, direct lighting elsewhere.
+    Whitted,
+    /// Path tracing with next-event estimation and MIS.
+    Path,
 }
 
 #[derive(Args, Debug)]
@@ -46,6 +51,9 @@ pub struct RenderArgs {
     /// Integrator (default: the scene's).
     #[arg(long, value_enum)]
     pub integrator: Option<IntegratorArg>,
+    /// Most bounces of the whitted and path integrators (default: the scene's, else 5).
+    #[arg(long)]
+    pub max_depth: Option<u32>,
     /// Worker threads (default: one per core; at most 1024).
     #[arg(long)]
     pub threads: Option<usize>,
@@ -127,6 +135,12 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     }
     anyhow::ensure!(a.spp != Some(0), "--spp must be at least 1");
     anyhow::ensure!(a.light_samples != Some(0), "--light-samples must be at least 1");
+    if let Some(d) = a.max_depth {
+        anyhow::ensure!(
+            (1..=MAX_DEPTH_LIMIT).contains(&d),
+            "--max-depth {d}: must be between 1 and {MAX_DEPTH_LIMIT} (bounces along a path)"
+        );
+    }
     with_threads(a.threads, || render_in_pool(&a))?
 }
 
@@ -139,17 +153,25 @@ fn render_in_pool(a: &RenderArgs) -> anyhow::Result<()> {
     let build_s = t0.elapsed().as_secs_f64();
     warn_all(&scene.warnings);
 
+    // The scene's light samples and bounces carry over to the integrator chosen.
+    let (light_samples, max_depth) = (desc.integrator.light_samples(), desc.integrator.max_depth());
     let mut integrator = match a.integrator {
         Some(IntegratorArg::RayCast) => Integrator::RayCast,
-        Some(IntegratorArg::Direct) => match desc.integrator {
-            d @ Integrator::DirectLighting { .. } => d,
-            Integrator::RayCast => Integrator::DirectLighting { light_samples: 1 },
-        },
+        Some(IntegratorArg::Direct) => Integrator::DirectLighting { light_samples },
+        Some(IntegratorArg::Whitted) => Integrator::Whitted { light_samples, max_depth },
+        Some(IntegratorArg::Path) => Integrator::Path { light_samples, max_depth },
         None => desc.integrator,
     };
     if let Some(n) = a.light_samples {
         integrator = integrator.with_light_samples(n);
     }
+    if let Some(d) = a.max_depth {
+        if !matches!(integrator, Integrator::Whitted { .. } | Integrator::Path { .. }) {
+            warn_all(&[format!("--max-depth has no effect on the {} integrator (only on whitted and path)", integrator.name())]);
+        }
+        integrator = integrator.with_max_depth(d);
+    }
+    warn_all(&integrator.warnings(&scene));
     let spp = a.spp.unwrap_or(desc.spp);
     let renderer = Renderer::new(a.width, a.height).spp(spp).seed(a.seed);
     let camera = desc.camera.build(renderer.aspect());
@@ -163,10 +185,24 @@ fn render_in_pool(a: &RenderArgs) -> anyhow::Result<()> {
     bar.finish_and_clear();
 
     image.save(&a.output, desc.display).with_context(|| "writing the image".to_string())?;
+    let bad = stats.samples;
+    if bad.nan + bad.inf > 0 {
+        warn_all(&[format!("{} NaN and {} infinite pixel samples were dropped (each pixel averages its other samples)", bad.nan, bad.inf)]);
+    }
+    if bad.negative > 0 {
+        warn_all(&[format!("{} pixel samples had a negative component", bad.negative)]);
+    }
+    let samples = if bad.all_good() {
+        "all samples finite".to_string()
+    } else {
+        format!("{} NaN, {} Inf, {} negative samples", bad.nan, bad.inf, bad.negative)
+    };
     println!(
-        "isir: {name} {}x{} {spp} spp, {}, {}: build {:.3} s, render {:.3} s, {:.2} M rays ({:.2} M primary, {:.2} M shadow), {:.2} Mrays/s -> wrote {}",
+        "isir: {name} {}x{} {spp} spp, {}, {}, {}: build {:.3} s, render {:.3} s, {:.2} M rays ({:.2} M primary, {:.2} M shadow, {:.2} M secondary), \
+         {:.2} Mrays/s, {samples} -> wrote {}",
         a.width,
         a.height,
+        integrator.name(),
         accel.name(),
         threads_phrase(rayon::current_num_threads()),
         build_s,
@@ -174,6 +210,7 @@ fn render_in_pool(a: &RenderArgs) -> anyhow::Result<()> {
         stats.rays.total() as f64 * 1e-6,
         stats.rays.primary as f64 * 1e-6,
         stats.rays.shadow as f64 * 1e-6,
+        stats.rays.secondary as f64 * 1e-6,
         stats.mrays_per_second(),
         a.output.display()
     );

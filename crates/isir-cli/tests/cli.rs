@@ -322,6 +322,68 @@ fn argument_errors_name_the_arguments_and_values() {
 }
 
 #[test]
+fn integrator_and_max_depth_errors_name_the_option() {
+    let (code, _, err) = isir(&["render", "tp4-sphere", "--integrator", "bogus"]);
+    one_line_error(code, &err, "bogus");
+    assert!(err.contains("--integrator") && err.contains("whitted") && err.contains("path") && err.contains("ray-cast"), "{err}");
+    for bad in ["0", "100000"] {
+        let (code, _, err) = isir(&["render", "tp4-sphere", "--width", "8", "--height", "8", "--max-depth", bad, "-o", "never.png"]);
+        one_line_error(code, &err, "--max-depth");
+    }
+    let (code, _, err) = isir(&["render", "tp4-sphere", "--max-depth", "two"]);
+    one_line_error(code, &err, "--max-depth");
+    // Given to an integrator without bounces: said, not silently ignored.
+    let png = tmp("depth.png");
+    let (code, _, err) = isir(&["render", "tp4-sphere", "--width", "8", "--height", "8", "--max-depth", "3", "-o", png.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains("isir: warning: --max-depth has no effect on the direct integrator"), "{err}");
+}
+
+#[test]
+fn the_path_tracer_renders_the_bunny_and_warns_once_about_color_materials() {
+    let png = tmp("bunny-path.png");
+    let (code, out, err) = isir(&[
+        "render",
+        "tp4-bunny",
+        "--integrator",
+        "path",
+        "--max-depth",
+        "3",
+        "--width",
+        "32",
+        "--height",
+        "24",
+        "--spp",
+        "1",
+        "-o",
+        png.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(err.matches("isir: warning:").count(), 1, "{err}");
+    assert!(err.contains("ColorMaterial") && err.contains("Lambert"), "{err}");
+    assert!(out.contains(", path,") && out.contains("M secondary") && out.contains("all samples finite"), "{out}");
+    assert_eq!(&std::fs::read(&png).unwrap()[1..4], b"PNG");
+    // Whitted: no warning, secondary rays only where mirrors and glass are (none here).
+    let (code, out, err) = isir(&[
+        "render",
+        "tp4-bunny",
+        "--integrator",
+        "whitted",
+        "--width",
+        "32",
+        "--height",
+        "24",
+        "--spp",
+        "1",
+        "-o",
+        png.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(!err.contains("warning"), "{err}");
+    assert!(out.contains(", whitted,") && out.contains("0.00 M secondary"), "{out}");
+}
+
+#[test]
 fn incompatible_flags_are_rejected_before_loading() {
     // The mesh and ray files do not exist: the flags are what must be reported.
     let (code, _, err) = isir(&["trace", "/nonexistent.obj", "/nonexistent.rays", "--packets", "--occluded"]);

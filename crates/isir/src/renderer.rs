@@ -11,6 +11,50 @@ use crate::scene::Scene;
 use rayon::prelude::*;
 use std::time::Instant;
 
+/// Pixel samples whose value was not a radiance (pbrt reports them too): a NaN or an
+/// infinity is dropped from its pixel (the pixel averages its other samples; black if it
+/// has none), so one bad sample cannot poison an image; a negative one is kept, counted.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SampleCounts {
+    /// Samples with a NaN component (dropped).
+    pub nan: u64,
+    /// Samples with an infinite component and no NaN (dropped).
+    pub inf: u64,
+    /// Finite samples with a negative component (kept).
+    pub negative: u64,
+}
+
+impl SampleCounts {
+    /// Count `c`; true when it may be added to its pixel (it is finite).
+    #[inline]
+    pub fn check(&mut self, c: Color) -> bool {
+        if c.is_nan() {
+            self.nan += 1;
+            false
+        } else if !c.is_finite() {
+            self.inf += 1;
+            false
+        } else {
+            if c.min_element() < 0.0 {
+                self.negative += 1;
+            }
+            true
+        }
+    }
+
+    /// True when every sample was a finite, non-negative radiance.
+    #[must_use]
+    pub fn all_good(&self) -> bool {
+        self.nan == 0 && self.inf == 0 && self.negative == 0
+    }
+
+    /// The sum of two counts.
+    #[must_use]
+    pub fn add(&self, o: &SampleCounts) -> SampleCounts {
+        SampleCounts { nan: self.nan + o.nan, inf: self.inf + o.inf, negative: self.negative + o.negative }
+    }
+}
+
 /// Figures of a finished render.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct RenderStats {
@@ -18,6 +62,8 @@ pub struct RenderStats {
     pub seconds: f64,
     /// Rays traced, by kind.
     pub rays: RayCounters,
+    /// Samples that were not a radiance (NaN, infinite, negative).
+    pub samples: SampleCounts,
 }
 
 impl RenderStats {
@@ -94,11 +140,11 @@ impl Renderer {
         let (w, h, ts) = (self.width, self.height, self.tile.max(1));
         let mut image = Image::new(w, h);
         if w == 0 || h == 0 {
-            return (image, RenderStats { seconds: start.elapsed().as_secs_f64(), rays: RayCounters::default() });
+            return (image, RenderStats { seconds: start.elapsed().as_secs_f64(), ..RenderStats::default() });
         }
         let tiles_x = w.div_ceil(ts);
         let band_len = ts as usize * w as usize;
-        let rays = image
+        let (rays, samples) = image
             .pixels
             .par_chunks_mut(band_len)
             .enumerate()
@@ -109,7 +155,7 @@ impl Renderer {
                     .into_par_iter()
                     .map(|tx| {
                         let (x0, x1) = (tx * ts, (tx * ts + ts).min(w));
-                        let mut counters = RayCounters::default();
+                        let mut counters = (RayCounters::default(), SampleCounts::default());
                         let mut pixels = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
                         for y in y0..y1 {
                             for x in x0..x1 {
@@ -122,34 +168,49 @@ impl Renderer {
                     // Tiles go into the band in any order: each pixel has its own place.
                     .collect::<Vec<_>>()
                     .into_iter()
-                    .fold(RayCounters::default(), |mut rays, (x0, pixels, counters)| {
+                    .fold((RayCounters::default(), SampleCounts::default()), |(rays, samples), (x0, pixels, counters)| {
                         let tw = pixels.len() / (y1 - y0) as usize;
                         for (row, src) in pixels.chunks_exact(tw).enumerate() {
                             let i = row * w as usize + x0 as usize;
                             band[i..i + tw].copy_from_slice(src);
                         }
-                        rays.primary += counters.primary;
-                        rays.shadow += counters.shadow;
-                        rays
+                        (rays.add(&counters.0), samples.add(&counters.1))
                     })
             })
-            .reduce(RayCounters::default, |a, b| RayCounters { primary: a.primary + b.primary, shadow: a.shadow + b.shadow });
-        (image, RenderStats { seconds: start.elapsed().as_secs_f64(), rays })
+            .reduce(|| (RayCounters::default(), SampleCounts::default()), |a, b| (a.0.add(&b.0), a.1.add(&b.1)));
+        (image, RenderStats { seconds: start.elapsed().as_secs_f64(), rays, samples })
     }
 
-    /// The average of the pixel's samples.
-    fn pixel(&self, scene: &Scene, camera: &Camera, integrator: &Integrator, x: u32, y: u32, counters: &mut RayCounters) -> Color {
+    /// The average of the pixel's finite samples (see [`SampleCounts`]).
+    fn pixel(
+        &self,
+        scene: &Scene,
+        camera: &Camera,
+        integrator: &Integrator,
+        x: u32,
+        y: u32,
+        (counters, samples): &mut (RayCounters, SampleCounts),
+    ) -> Color {
         let pixel_index = u64::from(y) * u64::from(self.width) + u64::from(x);
         let mut sum = Color::ZERO;
+        let mut kept = 0u32;
         for s in 0..self.spp {
             let mut rng = pixel_rng(self.seed, pixel_index, s);
             let jitter = if self.spp == 1 { glam::Vec2::splat(0.5) } else { rng.next_2d() };
             let sx = (x as f32 + jitter.x) / self.width as f32;
             let sy = (y as f32 + jitter.y) / self.height as f32;
             let ray = camera.generate_ray(sx, sy);
-            sum += integrator.li(scene, &ray, 0.0, f32::INFINITY, &mut rng, counters);
+            let c = integrator.li(scene, &ray, 0.0, f32::INFINITY, &mut rng, counters);
+            if samples.check(c) {
+                sum += c;
+                kept += 1;
+            }
         }
-        sum / self.spp as f32
+        if kept == 0 {
+            Color::ZERO
+        } else {
+            sum / kept as f32
+        }
     }
 }
 
@@ -169,7 +230,7 @@ mod tests {
             let camera = desc.camera.build(r.aspect());
             let integrator = Integrator::DirectLighting { light_samples: 2 };
             let mut expected = Image::new(w, h);
-            let mut rays = RayCounters::default();
+            let mut rays = (RayCounters::default(), SampleCounts::default());
             for y in 0..h {
                 for x in 0..w {
                     expected.set(x, y, r.pixel(&scene, &camera, &integrator, x, y, &mut rays));
@@ -185,7 +246,7 @@ mod tests {
                     })
                 });
                 assert_eq!(image.pixels, expected.pixels, "{w}x{h}, tile {tile}, {threads} threads");
-                assert_eq!(stats.rays, rays);
+                assert_eq!((stats.rays, stats.samples), rays);
                 assert_eq!(done.into_inner(), u64::from(w) * u64::from(h), "progress counts every pixel once");
                 assert_eq!(calls.into_inner(), u64::from(w.div_ceil(tile) * h.div_ceil(tile)), "one call per tile");
             }

@@ -1,7 +1,26 @@
 //! Lights: a point light and the course's quad (area) light.
+//!
+//! The course integrators only sample them ([`Light::sample`]). The path tracer also
+//! needs the quad light as an emitting surface that a BSDF-sampled ray can meet
+//! ([`Light::intersect`]): a one-sided rectangle of constant radiance
+//! `L_e = colour·power` towards `-(u × v)`, which is exactly what the course's sample
+//! `radiance = colour·power / pdf` estimates (`∫ L_e f cos dω ≈ L_e f cos / pdf`).
 
 use crate::math::color::Color;
+use crate::math::ray::Ray;
 use glam::{Vec2, Vec3};
+
+/// Where a ray meets an emitting surface (a quad light), seen from the ray's origin.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LightHit {
+    /// Ray parameter of the hit (in units of the ray's direction).
+    pub t: f32,
+    /// Radiance emitted towards the ray's origin (zero from the back).
+    pub emitted: Color,
+    /// Solid-angle pdf with which [`Light::sample`] would draw this point from the
+    /// ray's origin (`d² / (area · cos)`); 0 from the back.
+    pub pdf: f32,
+}
 
 /// A light sample seen from a point `x`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -85,9 +104,89 @@ impl Light {
     }
 }
 
+impl Light {
+    /// The radiance `L_e` an area light emits from its front (`colour·power`): the
+    /// course's sample radiance times the sample's pdf. Zero for point lights, which no
+    /// ray can meet.
+    #[must_use]
+    pub fn emitted_radiance(&self) -> Color {
+        match *self {
+            Light::Point { .. } => Color::ZERO,
+            Light::Quad { color, power, .. } => color * power,
+        }
+    }
+
+    /// Where `ray` meets this light in `(t_min, t_max)`, if it is a quad light. The back
+    /// of the quad (seen from where `dot(n, d) <= 0`) is met with no emission and pdf 0.
+    /// A parallelogram `corner + a·u + b·v`, `a, b ∈ [0, 1]`.
+    #[must_use]
+    pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<LightHit> {
+        let Light::Quad { corner, u, v, .. } = *self else { return None };
+        let c = u.cross(v);
+        let area = c.length();
+        if area.is_nan() || area <= 0.0 {
+            return None;
+        }
+        let n = c / area;
+        let denom = n.dot(ray.direction);
+        if denom == 0.0 || !denom.is_finite() {
+            return None;
+        }
+        let t = n.dot(corner - ray.origin) / denom;
+        if !(t > t_min && t < t_max) {
+            return None;
+        }
+        // Coordinates of the hit in the (u, v) basis, through the dual basis.
+        let p = ray.at(t) - corner;
+        let a = p.dot(v.cross(c)) / c.dot(c);
+        let b = p.dot(c.cross(u)) / c.dot(c);
+        if !((0.0..=1.0).contains(&a) && (0.0..=1.0).contains(&b)) {
+            return None;
+        }
+        let len = ray.direction.length();
+        let cos = denom / len;
+        if cos <= 0.0 {
+            return Some(LightHit { t, emitted: Color::ZERO, pdf: 0.0 });
+        }
+        let d = t * len;
+        Some(LightHit { t, emitted: self.emitted_radiance(), pdf: d * d / (area * cos) })
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_ray_meets_the_quad_where_sampling_would_put_it_with_the_same_pdf() {
+        let l = Light::Quad {
+            corner: Vec3::new(1.0, 10.0, 2.0),
+            u: Vec3::new(-2.0, 0.0, 0.0),
+            v: Vec3::new(0.0, 0.0, 2.0),
+            color: Vec3::new(1.0, 0.5, 0.25),
+            power: 40.0,
+        };
+        let x = Vec3::new(0.3, 0.0, 2.5);
+        for xi in [Vec2::new(0.5, 0.5), Vec2::new(0.1, 0.9), Vec2::new(0.99, 0.01)] {
+            let s = l.sample(x, xi);
+            let hit = l.intersect(&Ray::new(x, s.direction), 0.0, f32::INFINITY).expect("the sampled point is on the quad");
+            assert!((hit.t - s.distance).abs() < 1e-4, "{hit:?} {s:?}");
+            assert!((hit.pdf - s.pdf).abs() < 1e-4 * s.pdf, "{hit:?} {s:?}");
+            // The sample's radiance is L_e / pdf.
+            assert!((hit.emitted - s.radiance * s.pdf).abs().max_element() < 1e-3, "{hit:?} {s:?}");
+            assert_eq!(hit.emitted, Vec3::new(40.0, 20.0, 10.0));
+        }
+        // Beside the quad, behind the origin, beyond t_max: nothing.
+        assert!(l.intersect(&Ray::new(x, Vec3::new(1.0, 1.0, 0.0)), 0.0, f32::INFINITY).is_none());
+        assert!(l.intersect(&Ray::new(x, -Vec3::Y), 0.0, f32::INFINITY).is_none());
+        assert!(l.intersect(&Ray::new(x, Vec3::Y), 0.0, 5.0).is_none());
+        // From above, the back: met, but dark.
+        let back = l.intersect(&Ray::new(Vec3::new(0.0, 20.0, 3.0), -Vec3::Y), 0.0, f32::INFINITY).unwrap();
+        assert_eq!((back.emitted, back.pdf), (Vec3::ZERO, 0.0));
+        // Point lights are never met.
+        let p = Light::Point { position: Vec3::Y, color: Vec3::ONE, power: 1.0 };
+        assert!(p.intersect(&Ray::new(Vec3::ZERO, Vec3::Y), 0.0, f32::INFINITY).is_none());
+    }
 
     #[test]
     fn point_light_falls_off_with_distance_squared() {

@@ -97,8 +97,11 @@ pub fn next_float_down(x: f32) -> f32 {
 #[must_use]
 pub fn offset_ray_origin(p: Vec3, p_error: Vec3, n: Vec3, w: Vec3) -> Vec3 {
     let d = n.abs().dot(p_error);
-    let offset = if w.dot(n) < 0.0 { -d * n } else { d * n };
-    let po = p + offset;
+    // The normal on the side of `w`: the rounding goes that way even when the offset is
+    // 0 (a point computed exactly, e.g. on a plane through the origin), so the origin
+    // always leaves the surface.
+    let side = if w.dot(n) < 0.0 { -n } else { n };
+    let po = p + d * side;
     let away = |po: f32, o: f32| {
         if o > 0.0 {
             next_float_up(po)
@@ -108,7 +111,7 @@ pub fn offset_ray_origin(p: Vec3, p_error: Vec3, n: Vec3, w: Vec3) -> Vec3 {
             po
         }
     };
-    Vec3::new(away(po.x, offset.x), away(po.y, offset.y), away(po.z, offset.z))
+    Vec3::new(away(po.x, side.x), away(po.y, side.y), away(po.z, side.z))
 }
 
 /// The ray leaving surface point `p` (error bound `p_error`, geometric normal `ng`) in
@@ -133,6 +136,18 @@ pub fn spawn_ray_to(p: Vec3, p_error: Vec3, ng: Vec3, target: Vec3) -> Option<(R
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_point_known_exactly_still_moves_off_its_surface() {
+        // A plane through the origin gives its points with no error at all: the offset is
+        // 0, and a ray spawned there must still leave the plane (it met it at t = -0).
+        let plane = crate::geometry::Plane::new(Vec3::ZERO, Vec3::Y);
+        for (n, w) in [(Vec3::Y, -Vec3::Y), (-Vec3::Y, Vec3::Y), (Vec3::Y, Vec3::new(0.3, -1.0, 0.0).normalize())] {
+            let r = spawn_ray(Vec3::ZERO, Vec3::ZERO, n, w);
+            assert!(r.origin.y * w.y > 0.0, "{r:?}: on the side of w");
+            assert!(plane.intersect(&r, 0.0, f32::INFINITY).is_none(), "{r:?} hits the plane it leaves");
+        }
+    }
 
     #[test]
     fn offset_leaves_the_error_box_on_the_side_of_w() {

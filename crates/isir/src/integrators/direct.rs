@@ -1,0 +1,59 @@
+//! The course's direct lighting: for each light, the average over its samples of
+//! `shade · radiance · cos`, a sample counting only when its shadow ray reaches the light.
+
+use super::RayCounters;
+use crate::geometry::Hit;
+use crate::math::color::Color;
+use crate::math::ray::Ray;
+use crate::math::sampling::Sampler;
+use crate::scene::Scene;
+
+/// The direct-lighting integrator's `Li`.
+pub(super) fn li(
+    scene: &Scene,
+    ray: &Ray,
+    t_min: f32,
+    t_max: f32,
+    light_samples: u32,
+    sampler: &mut Sampler,
+    counters: &mut RayCounters,
+) -> Color {
+    counters.primary += 1;
+    let Some(hit) = scene.intersect(ray, t_min, t_max) else {
+        return scene.background;
+    };
+    direct_lighting(scene, ray, &hit, light_samples, sampler, counters)
+}
+
+/// Sum over the lights of the average over samples of `shade · radiance · cos`, counting a
+/// sample only when its shadow ray reaches the light.
+pub(super) fn direct_lighting(
+    scene: &Scene,
+    ray: &Ray,
+    hit: &Hit,
+    light_samples: u32,
+    sampler: &mut Sampler,
+    counters: &mut RayCounters,
+) -> Color {
+    let material = scene.material(hit);
+    let mut li = Color::ZERO;
+    for light in &scene.lights {
+        let n = if light.is_surface() { light_samples.max(1) } else { 1 };
+        let mut sum = Color::ZERO;
+        for _ in 0..n {
+            let ls = light.sample(hit.point, sampler.next_2d());
+            let cos = ls.direction.dot(hit.normal).max(0.0);
+            if cos == 0.0 || ls.radiance == Color::ZERO {
+                continue;
+            }
+            // ---- Shadow ray, from outside the hit point's error bound on the light's side ----
+            let Some((shadow, t_max)) = hit.spawn_ray_to(ls.point) else { continue };
+            counters.shadow += 1;
+            if !scene.occluded(&shadow, 0.0, t_max) {
+                sum += material.shade(ray, hit, &ls) * ls.radiance * cos;
+            }
+        }
+        li += sum / n as f32;
+    }
+    li
+}

@@ -1,0 +1,163 @@
+//! The path tracer (beyond the course; pbrt-v4's `PathIntegrator`): at each vertex,
+//! next-event estimation towards every light and one BSDF-sampled ray, the two combined by
+//! multiple importance sampling (power heuristic) for quad lights, whose emission a
+//! BSDF-sampled ray can meet; Russian roulette on the throughput.
+//!
+//! What it estimates: the quad light emits `L_e = colour·power` from its front (the
+//! course's sample radiance `colour·power / pdf` is exactly the estimate of that
+//! surface's light), so with `max_depth` 1 and Lambert materials it converges to the
+//! direct-lighting integrator's image. Point lights are met by next-event estimation
+//! only. The background is a uniform environment: any ray leaving the scene brings it.
+
+use super::RayCounters;
+use crate::geometry::Hit;
+use crate::materials::Material;
+use crate::math::color::Color;
+use crate::math::ray::Ray;
+use crate::math::sampling::Sampler;
+use crate::scene::Scene;
+use glam::Vec3;
+
+/// Russian roulette starts once a path has this many BSDF-sampled rays: the first
+/// bounces carry most of the light and are always traced.
+pub(super) const ROULETTE_DEPTH: u32 = 3;
+
+/// Veach's power heuristic (β = 2) for `nf` samples of pdf `f_pdf` against `ng` of `g_pdf`.
+#[inline]
+fn power_heuristic(nf: f32, f_pdf: f32, ng: f32, g_pdf: f32) -> f32 {
+    let (f, g) = (nf * f_pdf, ng * g_pdf);
+    if f.is_infinite() {
+        return 1.0;
+    }
+    let (f2, g2) = (f * f, g * g);
+    if f2 + g2 > 0.0 {
+        f2 / (f2 + g2)
+    } else {
+        0.0
+    }
+}
+
+/// The path tracer's `Li`.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn li(
+    scene: &Scene,
+    ray: &Ray,
+    t_min: f32,
+    t_max: f32,
+    light_samples: u32,
+    max_depth: u32,
+    sampler: &mut Sampler,
+    counters: &mut RayCounters,
+) -> Color {
+    counters.primary += 1;
+    let n_light = light_samples.max(1);
+    let (mut ray, mut t0, mut t1) = (*ray, t_min, t_max);
+    let mut l = Color::ZERO;
+    let mut beta = Color::ONE;
+    // The camera ray and rays from delta lobes: emitters they meet count fully (no light
+    // sampling could have found them).
+    let mut specular = true;
+    // The solid-angle pdf of the BSDF sample that made `ray`.
+    let mut bsdf_pdf = 0.0f32;
+    let mut depth = 0;
+    loop {
+        let hit = scene.intersect(&ray, t0, t1);
+        // ---- Quad lights met before the surface (they block nothing) ----
+        let t_hit = hit.map_or(t1, |h| h.t);
+        for light in &scene.lights {
+            if let Some(lh) = light.intersect(&ray, t0, t_hit) {
+                if lh.emitted != Color::ZERO {
+                    let w = if specular { 1.0 } else { power_heuristic(1.0, bsdf_pdf, n_light as f32, lh.pdf) };
+                    l += beta * lh.emitted * w;
+                }
+            }
+        }
+        let Some(hit) = hit else {
+            l += beta * scene.background;
+            break;
+        };
+        if depth >= max_depth {
+            break;
+        }
+        let material = scene.material(&hit);
+        let wo = -ray.direction.normalize();
+        if !material.is_delta() {
+            l += beta * next_event(scene, &hit, material, wo, n_light, sampler, counters);
+        }
+        // ---- The next direction ----
+        let (u_lobe, u) = (sampler.next_f32(), sampler.next_2d());
+        let Some(bs) = material.sample(&hit, wo, u_lobe, u) else { break };
+        if bs.weight == Color::ZERO || !(bs.delta || bs.pdf > 0.0) {
+            break;
+        }
+        beta *= bs.weight;
+        specular = bs.delta;
+        bsdf_pdf = bs.pdf;
+        depth += 1;
+        if depth > ROULETTE_DEPTH {
+            // Survive with probability max(β) (capped at 1) and carry 1/p more: unbiased.
+            let p = beta.max_element().min(1.0);
+            if p.is_nan() || sampler.next_f32() >= p {
+                break;
+            }
+            beta /= p;
+        }
+        counters.secondary += 1;
+        ray = hit.spawn_ray(bs.wi);
+        (t0, t1) = (0.0, f32::INFINITY);
+    }
+    l
+}
+
+/// Light arriving at `hit` straight from the lights and leaving towards `wo`: for each
+/// light the average over its samples (`n_light` per quad light, one per point light) of
+/// `f · L · |cos| / pdf`, weighted against BSDF sampling for quad lights.
+fn next_event(
+    scene: &Scene,
+    hit: &Hit,
+    material: &Material,
+    wo: Vec3,
+    n_light: u32,
+    sampler: &mut Sampler,
+    counters: &mut RayCounters,
+) -> Color {
+    let mut sum = Color::ZERO;
+    for light in &scene.lights {
+        let n = if light.is_surface() { n_light } else { 1 };
+        let mut acc = Color::ZERO;
+        for _ in 0..n {
+            let ls = light.sample(hit.point, sampler.next_2d());
+            if ls.radiance == Color::ZERO || ls.pdf.is_nan() || ls.pdf <= 0.0 {
+                continue;
+            }
+            let f = material.eval(hit, wo, ls.direction);
+            if f == Color::ZERO {
+                continue;
+            }
+            let Some((shadow, t_max)) = hit.spawn_ray_to(ls.point) else { continue };
+            counters.shadow += 1;
+            if scene.occluded(&shadow, 0.0, t_max) {
+                continue;
+            }
+            let w = if light.is_surface() { power_heuristic(n as f32, ls.pdf, 1.0, material.pdf(hit, wo, ls.direction)) } else { 1.0 };
+            acc += f * ls.radiance * ls.direction.dot(hit.normal).abs() * w;
+        }
+        sum += acc / n as f32;
+    }
+    sum
+}
+
+#[cfg(test)]
+mod tests {
+    use super::power_heuristic;
+
+    #[test]
+    fn power_heuristic_weights_sum_to_one() {
+        for (a, b) in [(0.3f32, 2.0f32), (1.0, 1.0), (5.0, 0.01)] {
+            let w = power_heuristic(4.0, a, 1.0, b) + power_heuristic(1.0, b, 4.0, a);
+            assert!((w - 1.0).abs() < 1e-6);
+        }
+        assert_eq!(power_heuristic(1.0, 0.0, 1.0, 0.0), 0.0);
+        assert_eq!(power_heuristic(1.0, 1.0, 1.0, 0.0), 1.0);
+    }
+}
