@@ -261,3 +261,18 @@ fn bad_trees_are_refused_with_the_node_named() {
     assert!(empty.bounds().is_empty());
     assert_eq!(empty.intersect(&Ray::new(Vec3::new(-5.0, 0.0, 0.0), Vec3::X), 0.0, f32::INFINITY), None);
 }
+
+#[test]
+fn a_ray_skimming_a_long_face_ends_after_the_step_limit() {
+    // Parallel to the top face of a box 2,000 long, 2e-4 above it: every step is 2e-4, so
+    // the march would need 10^7 steps to cross; it stops at MAX_STEPS and reports no hit.
+    let slab = Implicit::new(Sdf::Box { half: Vec3::new(1000.0, 1.0, 1.0) }).unwrap();
+    let skim = Ray::new(Vec3::new(-1500.0, 1.0 + 2e-4 + 1000.0 / 1_048_576.0, 0.0), Vec3::X);
+    let start = std::time::Instant::now();
+    assert_eq!(slab.intersect(&skim, 0.0, f32::INFINITY), None);
+    assert!(start.elapsed().as_millis() < 100);
+    // The same ray a little lower hits the top face's edge region within the threshold.
+    let touching = Ray::new(Vec3::new(-1500.0, 1.0 + 0.5e-4, 0.0), Vec3::X);
+    let t = slab.intersect(&touching, 0.0, f32::INFINITY).unwrap();
+    assert!((t - 500.0).abs() < 1.0, "{t}");
+}
