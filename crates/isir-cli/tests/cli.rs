@@ -25,7 +25,7 @@ fn one_line_error(code: i32, err: &str, needle: &str) {
 fn scenes_lists_the_four_tp4_scenes() {
     let (code, out, _) = isir(&["scenes"]);
     assert_eq!(code, 0);
-    for n in ["tp4-sphere-flat", "tp4-sphere", "tp4-bunny", "tp4-conference"] {
+    for n in ["tp4-sphere-flat", "tp4-sphere", "tp4-bunny", "tp4-conference", "tp7-implicit"] {
         assert!(out.lines().any(|l| l.starts_with(n)), "{n} missing from:\n{out}");
     }
 }

@@ -49,6 +49,7 @@ const TABLE: &[(&str, Accel, u64)] = &[
     ("tp4-bunny", Accel::BvhSah, 0x81ccbed896a6c2c6),
     ("tp4-bunny", Accel::BvhMid, 0x81ccbed896a6c2c6),
     ("tp4-conference", Accel::BvhSah, 0xc83cbcaa6f1140e6),
+    ("tp7-implicit", Accel::BvhSah, 0xd5522954441e1fe3),
 ];
 
 #[test]

@@ -1,14 +1,17 @@
-//! The course's geometries: [`Sphere`], infinite [`Plane`], [`TriangleMesh`], and the
+//! The course's geometries: [`Sphere`], infinite [`Plane`], [`TriangleMesh`], [`Implicit`]
+//! surfaces (TP7), and the
 //! surface interaction [`Hit`] that everything above the seam reads (its point computed
 //! on the surface with an error bound, pbrt-v4 §6.8).
 
 mod hit;
+pub mod implicit;
 mod plane;
 mod sphere;
 mod triangle_mesh;
 
 pub use crate::accel::MeshHit;
 pub use hit::{Hit, MaterialId};
+pub use implicit::{Implicit, Sdf};
 pub use plane::Plane;
 pub use sphere::Sphere;
 pub use triangle_mesh::{MeshAccel, MeshStats, Shading, TriangleMesh, OVERLAP_WARNING};
@@ -22,4 +25,6 @@ pub enum Geometry {
     Plane(Plane),
     /// A triangle mesh with its acceleration structure.
     Mesh(Box<TriangleMesh>),
+    /// An implicit surface, sphere traced inside its bounding box.
+    Implicit(Box<Implicit>),
 }

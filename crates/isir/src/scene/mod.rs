@@ -55,6 +55,7 @@ impl Scene {
                 Geometry::Sphere(s) => s.intersect(ray, t_min, t_best).map(|t| (t, 0, 0.0, 0.0)),
                 Geometry::Plane(p) => p.intersect(ray, t_min, t_best).map(|t| (t, 0, 0.0, 0.0)),
                 Geometry::Mesh(m) => m.intersect(ray, t_min, t_best).map(|h| (h.t, h.prim, h.u, h.v)),
+                Geometry::Implicit(s) => s.intersect(ray, t_min, t_best).map(|t| (t, 0, 0.0, 0.0)),
             };
             if let Some((t, prim, u, v)) = found {
                 t_best = t;
@@ -72,6 +73,11 @@ impl Scene {
             Geometry::Plane(p) => (p.surface_point(ray, t), p.normal, p.normal, 0),
             Geometry::Mesh(m) => {
                 (m.surface_point(prim, u, v), m.shading_normal(prim, u, v), m.face_normal(prim), m.material_slots[prim as usize] as usize)
+            }
+            Geometry::Implicit(s) => {
+                let (p, e) = s.surface_point(ray, t);
+                let n = s.normal(p);
+                ((p, e), n, n, 0)
             }
         };
         let face = |n: Vec3| if ray.direction.dot(n) > 0.0 { -n } else { n };
@@ -98,11 +104,12 @@ impl Scene {
                 Geometry::Sphere(s) => s.intersect(ray, t_min, t_max).is_some(),
                 Geometry::Plane(p) => p.intersect(ray, t_min, t_max).is_some(),
                 Geometry::Mesh(m) => m.occluded(ray, t_min, t_max),
+                Geometry::Implicit(s) => s.intersect(ray, t_min, t_max).is_some(),
             })
     }
 
     /// What the closest-hit query along `ray` costs: nodes visited and primitives tested
-    /// (a sphere or a plane is one test), summed over the objects as
+    /// (a sphere, a plane or an implicit surface is one test), summed over the objects as
     /// [`Scene::intersect`] meets them (`--aov cost`).
     #[must_use]
     pub fn cost(&self, ray: &Ray, t_min: f32, t_max: f32) -> TraversalStats {
@@ -120,6 +127,11 @@ impl Scene {
                 Geometry::Plane(p) => {
                     total.triangles += 1;
                     p.intersect(ray, t_min, t_best)
+                }
+                Geometry::Implicit(s) => {
+                    // Counted as one test (its box and its march), like a sphere.
+                    total.triangles += 1;
+                    s.intersect(ray, t_min, t_best)
                 }
                 Geometry::Mesh(m) => {
                     let (h, c) = m.intersect_cost(ray, t_min, t_best);

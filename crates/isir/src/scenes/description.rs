@@ -6,7 +6,7 @@ use crate::accel::triangle::TriangleTest;
 use crate::accel::Accel;
 use crate::camera::Camera;
 use crate::error::{Error, Result};
-use crate::geometry::{Geometry, Plane, Shading, Sphere};
+use crate::geometry::{Geometry, Implicit, Plane, Sdf, Shading, Sphere};
 use crate::integrators::Integrator;
 use crate::io::image::Display;
 use crate::io::mesh;
@@ -128,6 +128,8 @@ pub enum ShapeDesc {
         /// Smooth or flat normals.
         shading: Shading,
     },
+    /// An implicit surface (TP7), sphere traced: a tree of signed distance functions.
+    Implicit(Sdf),
 }
 
 /// An object of a description.
@@ -243,6 +245,16 @@ impl SceneDescription {
                     }
                     check_extent(&what, p.point.abs().max_element())?;
                     (Geometry::Plane(*p), vec![chosen.unwrap_or(0)])
+                }
+                ShapeDesc::Implicit(sdf) => {
+                    let implicit = Implicit::new(sdf.clone()).map_err(|why| Error::Scene(format!("{what}: implicit surface: {why}")))?;
+                    let b = implicit.bounds();
+                    if b.is_empty() {
+                        warnings.push(format!("{}: the implicit surface is empty (an intersection of shapes that do not meet)", desc.name));
+                    } else {
+                        check_extent(&what, b.min.abs().max(b.max.abs()).max_element())?;
+                    }
+                    (Geometry::Implicit(Box::new(implicit)), vec![chosen.unwrap_or(0)])
                 }
                 ShapeDesc::Mesh { source, shading } => {
                     let loaded = match source {

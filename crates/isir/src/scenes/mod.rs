@@ -10,17 +10,18 @@ mod description;
 mod tp1;
 mod tp2;
 mod tp4;
+mod tp7;
 
 pub use description::{CameraDesc, MeshSource, ObjectDesc, SceneDescription, ShapeDesc, MAX_COORDINATE};
 
 use crate::error::{Error, Result};
-use crate::geometry::{Plane, Shading, Sphere};
+use crate::geometry::{Plane, Sdf, Shading, Sphere};
 use crate::integrators::Integrator;
 use crate::io::obj::{self, LoadedMesh};
 use crate::lights::Light;
 use crate::materials::Material;
 use crate::math::color::{BLUE, CYAN, GREEN, GREY, MAGENTA, RED, WHITE, YELLOW};
-use glam::Vec3;
+use glam::{Quat, Vec3};
 use std::path::Path;
 use tp4::{tp4_conference, tp4_room};
 
@@ -93,6 +94,7 @@ const NAMES: &[&str] = &[
     "tp4-sphere",
     "tp4-bunny",
     "tp4-conference",
+    "tp7-implicit",
 ];
 
 /// The scene rendered when none is named.
@@ -149,6 +151,7 @@ pub fn builtin(name: &str) -> Result<SceneDescription> {
             "TP4 figure 1c: Bunny.obj (31,599 triangles), camera moved back by 1",
         )),
         "tp4-conference" => Ok(tp4_conference()),
+        "tp7-implicit" => Ok(tp7::tp7_implicit()),
         _ => Err(Error::UnknownScene(name.to_string())),
     }
 }
