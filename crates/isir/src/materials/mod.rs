@@ -15,6 +15,13 @@
 //!   lobe's reflectance or transmittance, e.g. 1 for the mirror), or `None` when no
 //!   direction is drawn (the path ends).
 
+mod lobes;
+
+pub use lobes::{
+    cook_torrance_spec, ggx_d, ggx_visible_pdf, oren_nayar, phong_cos, phong_lobe_pdf, plastic, sample_ggx_visible, sample_phong_lobe,
+    schlick_fresnel, schlick_ggx,
+};
+
 use crate::geometry::Hit;
 use crate::lights::LightSample;
 use crate::math::color::{Color, BLACK, WHITE};
@@ -34,6 +41,43 @@ pub enum Material {
     Color(Color),
     /// Lambertian diffuse: `kd / π`.
     Lambert(Color),
+    /// The course's `MatteMaterial`: Oren–Nayar of roughness `sigma` (radians, the
+    /// standard deviation of the facet slopes), [`oren_nayar`]. `sigma` 0 is Lambert.
+    Matte {
+        /// Diffuse colour.
+        kd: Color,
+        /// Roughness σ.
+        sigma: f32,
+    },
+    /// The course's `PlasticMaterial`: `0.7·kd/π + 0.3·ks·cos(α)^s / cos θi` ([`plastic`]),
+    /// `α` between `ωo` and the mirror of `ωi` (Phong) or between `n` and the half vector
+    /// (`blinn`). The `1/cos θi` (the course's) makes it reflect more than it receives at
+    /// grazing light: not energy conserving, and not reciprocal.
+    Plastic {
+        /// Diffuse colour.
+        kd: Color,
+        /// Specular colour.
+        ks: Color,
+        /// The exponent `s`.
+        shininess: f32,
+        /// Blinn–Phong (half vector) instead of Phong (mirror direction).
+        blinn: bool,
+    },
+    /// The course's `CookTorranceMaterial`: `(1 - metalness)·OrenNayar(kd, σ = roughness)`
+    /// plus `metalness·D·F·G / (4(ωo·n)(ωi·n))`, with GGX `D` (`α = roughness²`), Schlick–GGX
+    /// `G` (`k = (roughness+1)²/8`) and Schlick `F` from `f0` ([`cook_torrance_spec`]). The
+    /// course leaves the diffuse part's σ open: isir uses the roughness, so metalness 0 is
+    /// exactly Oren–Nayar with σ = roughness.
+    CookTorrance {
+        /// Diffuse colour.
+        kd: Color,
+        /// Reflectance at normal incidence.
+        f0: Color,
+        /// Roughness (GGX `α = roughness²`).
+        roughness: f32,
+        /// Mix between the diffuse (0) and the specular (1) parts.
+        metalness: f32,
+    },
     /// A perfect mirror: all light along the reflection `2(n·wo)n - wo`. The course's
     /// `MirrorMaterial`, handled by the Whitted integrator (its `shade` is black).
     Mirror,
@@ -67,6 +111,7 @@ impl Material {
     pub fn flat_color(&self) -> Color {
         match self {
             Material::Color(c) | Material::Lambert(c) => *c,
+            Material::Matte { kd, .. } | Material::Plastic { kd, .. } | Material::CookTorrance { kd, .. } => *kd,
             Material::Mirror | Material::Transparent { .. } => WHITE,
         }
     }
@@ -74,11 +119,68 @@ impl Material {
     /// The course's `shade(ray, hit, lightSample)`: the BRDF value for light arriving along
     /// `light.direction` and leaving towards the ray's origin.
     #[must_use]
-    pub fn shade(&self, _ray: &Ray, _hit: &Hit, _light: &LightSample) -> Color {
+    pub fn shade(&self, ray: &Ray, hit: &Hit, light: &LightSample) -> Color {
         match self {
             Material::Color(c) => *c,
             Material::Lambert(kd) => *kd * FRAC_1_PI,
             Material::Mirror | Material::Transparent { .. } => BLACK,
+            _ => self.brdf(hit.normal, -ray.direction.normalize_or_zero(), light.direction),
+        }
+    }
+
+    /// The BRDF of the glossy and rough kinds, by the course's formulas.
+    fn brdf(&self, n: Vec3, wo: Vec3, wi: Vec3) -> Color {
+        match *self {
+            Material::Color(c) | Material::Lambert(c) => {
+                if n.dot(wo) > 0.0 && n.dot(wi) > 0.0 {
+                    c * FRAC_1_PI
+                } else {
+                    BLACK
+                }
+            }
+            Material::Matte { kd, sigma } => oren_nayar(kd, sigma, n, wo, wi),
+            Material::Plastic { kd, ks, shininess, blinn } => plastic(kd, ks, shininess, blinn, n, wo, wi),
+            Material::CookTorrance { kd, f0, roughness, metalness } => {
+                let m = metalness.clamp(0.0, 1.0);
+                (1.0 - m) * oren_nayar(kd, roughness, n, wo, wi) + m * cook_torrance_spec(f0, roughness, n, wo, wi)
+            }
+            Material::Mirror | Material::Transparent { .. } => BLACK,
+        }
+    }
+
+    /// The probability that [`Material::sample`] draws from the glossy lobe.
+    fn glossy_probability(&self) -> f32 {
+        match *self {
+            Material::Plastic { .. } => 0.5,
+            Material::CookTorrance { metalness, .. } => metalness.clamp(0.0, 1.0),
+            _ => 0.0,
+        }
+    }
+
+    /// The density of the glossy lobe's directions (see [`Material::sample`]).
+    fn glossy_pdf(&self, n: Vec3, wo: Vec3, wi: Vec3) -> f32 {
+        match *self {
+            Material::Plastic { shininess, blinn: false, .. } => phong_lobe_pdf(shininess, wi.dot(reflect(wo, n))),
+            Material::Plastic { shininess, blinn: true, .. } => {
+                let h = (wi + wo).normalize_or_zero();
+                let c = wo.dot(h);
+                if c <= 0.0 {
+                    0.0
+                } else {
+                    phong_lobe_pdf(shininess, n.dot(h)) / (4.0 * c)
+                }
+            }
+            Material::CookTorrance { roughness, .. } => {
+                let h = (wi + wo).normalize_or_zero();
+                let c = wo.dot(h);
+                let alpha = (roughness * roughness).max(lobes::MIN_ALPHA);
+                if c <= 0.0 {
+                    0.0
+                } else {
+                    ggx_visible_pdf(alpha, n, wo, h) / (4.0 * c)
+                }
+            }
+            _ => 0.0,
         }
     }
 
@@ -96,10 +198,7 @@ impl Material {
         if n.dot(wo) <= 0.0 || n.dot(wi) <= 0.0 {
             return BLACK;
         }
-        match self {
-            Material::Color(c) | Material::Lambert(c) => *c * FRAC_1_PI,
-            Material::Mirror | Material::Transparent { .. } => BLACK,
-        }
+        self.brdf(n, wo, wi)
     }
 
     /// The solid-angle pdf with which [`Material::sample`] draws `wi`.
@@ -110,8 +209,15 @@ impl Material {
             return 0.0;
         }
         match self {
-            Material::Color(_) | Material::Lambert(_) => square_to_cosine_hemisphere_pdf(n, wi),
             Material::Mirror | Material::Transparent { .. } => 0.0,
+            _ => {
+                if n.dot(wi) <= 0.0 {
+                    return 0.0;
+                }
+                let p = self.glossy_probability();
+                let glossy = if p > 0.0 { self.glossy_pdf(n, wo, wi) } else { 0.0 };
+                (1.0 - p) * square_to_cosine_hemisphere_pdf(n, wi) + p * glossy
+            }
         }
     }
 
@@ -129,6 +235,31 @@ impl Material {
                 let pdf = square_to_cosine_hemisphere_pdf(n, wi);
                 // f·cos/pdf = (c/π)·cos / (cos/π) = c.
                 (pdf > 0.0).then_some(BsdfSample { wi, weight: *c, pdf, delta: false })
+            }
+            Material::Matte { .. } | Material::Plastic { .. } | Material::CookTorrance { .. } => {
+                // A mixture: the cosine lobe, or the glossy one with probability p
+                // (Phong's lobe about the mirror direction, Blinn–Phong's about n for the
+                // half vector, GGX's visible normals); the pdf is the mixture's.
+                let p = self.glossy_probability();
+                let wi = if u_lobe < p {
+                    match *self {
+                        Material::Plastic { shininess, blinn: false, .. } => sample_phong_lobe(reflect(wo, n), shininess, u),
+                        Material::Plastic { shininess, blinn: true, .. } => reflect(wo, sample_phong_lobe(n, shininess, u)),
+                        Material::CookTorrance { roughness, .. } => {
+                            reflect(wo, sample_ggx_visible((roughness * roughness).max(lobes::MIN_ALPHA), n, wo, u))
+                        }
+                        _ => unreachable!("only the glossy kinds have p > 0"),
+                    }
+                } else {
+                    square_to_cosine_hemisphere(n, u)
+                };
+                let cos_i = n.dot(wi);
+                let pdf = self.pdf(hit, wo, wi);
+                if cos_i <= 0.0 || pdf <= 0.0 || !pdf.is_finite() {
+                    return None;
+                }
+                let weight = self.brdf(n, wo, wi) * cos_i / pdf;
+                weight.is_finite().then_some(BsdfSample { wi, weight, pdf, delta: false })
             }
             Material::Mirror => Some(BsdfSample { wi: reflect(wo, n), weight: WHITE, pdf: 0.0, delta: true }),
             Material::Transparent { ior } => {

@@ -62,6 +62,22 @@ pub fn square_to_cosine_hemisphere_pdf(n: glam::Vec3, w: glam::Vec3) -> f32 {
     n.dot(w).max(0.0) * std::f32::consts::FRAC_1_PI
 }
 
+/// A direction uniform on the unit sphere, from two uniform numbers (Archimedes: `z`
+/// uniform in [-1, 1]).
+#[must_use]
+pub fn square_to_uniform_sphere(xi: glam::Vec2) -> glam::Vec3 {
+    let z = 1.0 - 2.0 * xi.x;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let phi = 2.0 * std::f32::consts::PI * xi.y;
+    glam::Vec3::new(r * phi.cos(), r * phi.sin(), z)
+}
+
+/// The pdf (solid angle) of [`square_to_uniform_sphere`]: `1/(4π)`.
+#[must_use]
+pub fn square_to_uniform_sphere_pdf() -> f32 {
+    0.25 * std::f32::consts::FRAC_1_PI
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -1,0 +1,165 @@
+//! The course's reflectance formulas (TP5), each a function of the shading normal and the
+//! two directions (unit, away from the surface), and the densities of the directions the
+//! path tracer draws for them.
+//!
+//! - Oren–Nayar (1994), the course's `MatteMaterial`: `A = 1 - 0.5σ²/(σ²+0.33)`,
+//!   `B = 0.45σ²/(σ²+0.09)`, `kd/π·(A + B·max(0, cos(φi-φo))·sin α·tan β)`,
+//!   `α = max(θi, θo)`, `β = min(θi, θo)`.
+//! - Phong, the course's `PlasticMaterial`: `0.7·kd/π + 0.3·ks·cos(α)^s / cos θi`, `α`
+//!   between `ωo` and the mirror of `ωi`; Blinn–Phong: `α` between `n` and the half vector.
+//! - Cook–Torrance (the course's `CookTorranceMaterial`): GGX `D` with `α = roughness²`,
+//!   Schlick–GGX `G` with `k = (roughness+1)²/8` for each direction, Schlick `F`,
+//!   `spec = D·F·G / (4(ωo·n)(ωi·n))`.
+//! - GGX visible-normal sampling: Heitz, "Sampling the GGX distribution of visible
+//!   normals", JCGT 2018.
+
+use crate::math::color::Color;
+use glam::{Vec2, Vec3};
+use std::f32::consts::{FRAC_1_PI, PI};
+
+/// Smallest cosine divided by (grazing directions): keeps formulas finite.
+const MIN_COS: f32 = 1e-4;
+/// Smallest GGX `α` (a perfectly smooth GGX lobe is a delta, which this is not).
+pub(super) const MIN_ALPHA: f32 = 1e-3;
+
+/// The Oren–Nayar BRDF (no cosine).
+#[must_use]
+pub fn oren_nayar(kd: Color, sigma: f32, n: Vec3, wo: Vec3, wi: Vec3) -> Color {
+    let (cos_i, cos_o) = (n.dot(wi), n.dot(wo));
+    if cos_i <= 0.0 || cos_o <= 0.0 {
+        return Color::ZERO;
+    }
+    let s2 = sigma * sigma;
+    let a = 1.0 - 0.5 * s2 / (s2 + 0.33);
+    let b = 0.45 * s2 / (s2 + 0.09);
+    // cos(φi - φo): the cosine between the directions projected on the tangent plane.
+    let (ti, to) = (wi - n * cos_i, wo - n * cos_o);
+    let (li, lo) = (ti.length(), to.length());
+    let cos_phi = if li > 1e-6 && lo > 1e-6 { (ti.dot(to) / (li * lo)).max(0.0) } else { 0.0 };
+    // α = max(θi, θo) has the smaller cosine, β = min(θi, θo) the larger.
+    let (cos_alpha, cos_beta) = (cos_i.min(cos_o).min(1.0), cos_i.max(cos_o).min(1.0));
+    let sin_alpha = (1.0 - cos_alpha * cos_alpha).max(0.0).sqrt();
+    let tan_beta = (1.0 - cos_beta * cos_beta).max(0.0).sqrt() / cos_beta.max(MIN_COS);
+    kd * FRAC_1_PI * (a + b * cos_phi * sin_alpha * tan_beta)
+}
+
+/// The cosine of the course's Phong angle: between `ωo` and the mirror of `ωi` (Phong),
+/// or between `n` and the half vector (Blinn–Phong).
+#[must_use]
+pub fn phong_cos(blinn: bool, n: Vec3, wo: Vec3, wi: Vec3) -> f32 {
+    if blinn {
+        n.dot((wi + wo).normalize_or_zero()).max(0.0)
+    } else {
+        (2.0 * n.dot(wi) * n - wi).dot(wo).max(0.0)
+    }
+}
+
+/// The course's Plastic BRDF (no cosine): `0.7·kd/π + 0.3·ks·cos(α)^s / cos θi`.
+#[must_use]
+pub fn plastic(kd: Color, ks: Color, shininess: f32, blinn: bool, n: Vec3, wo: Vec3, wi: Vec3) -> Color {
+    let cos_i = n.dot(wi);
+    if cos_i <= 0.0 || n.dot(wo) <= 0.0 {
+        return Color::ZERO;
+    }
+    0.7 * kd * FRAC_1_PI + 0.3 * ks * phong_cos(blinn, n, wo, wi).powf(shininess) / cos_i.max(MIN_COS)
+}
+
+/// GGX normal distribution `D(h)` for `α`, with `cos_h = n·h`.
+#[must_use]
+pub fn ggx_d(alpha: f32, cos_h: f32) -> f32 {
+    if cos_h <= 0.0 {
+        return 0.0;
+    }
+    let a2 = alpha * alpha;
+    let t = cos_h * cos_h * (a2 - 1.0) + 1.0;
+    a2 / (PI * t * t)
+}
+
+/// Schlick–GGX masking of one direction, `k = (roughness+1)²/8` (the course's `G1`).
+#[must_use]
+pub fn schlick_ggx(roughness: f32, cos: f32) -> f32 {
+    let k = (roughness + 1.0) * (roughness + 1.0) / 8.0;
+    cos / (cos * (1.0 - k) + k)
+}
+
+/// Schlick's Fresnel approximation.
+#[must_use]
+pub fn schlick_fresnel(f0: Color, cos: f32) -> Color {
+    f0 + (Color::ONE - f0) * (1.0 - cos.clamp(0.0, 1.0)).powi(5)
+}
+
+/// The Cook–Torrance specular term `D·F·G / (4(ωo·n)(ωi·n))` (no cosine).
+#[must_use]
+pub fn cook_torrance_spec(f0: Color, roughness: f32, n: Vec3, wo: Vec3, wi: Vec3) -> Color {
+    let (cos_i, cos_o) = (n.dot(wi), n.dot(wo));
+    if cos_i <= 0.0 || cos_o <= 0.0 {
+        return Color::ZERO;
+    }
+    let h = (wi + wo).normalize_or_zero();
+    let alpha = (roughness * roughness).max(MIN_ALPHA);
+    let d = ggx_d(alpha, n.dot(h));
+    let g = schlick_ggx(roughness, cos_o) * schlick_ggx(roughness, cos_i);
+    let f = schlick_fresnel(f0, h.dot(wo));
+    f * (d * g / (4.0 * cos_o.max(MIN_COS) * cos_i.max(MIN_COS)))
+}
+
+/// The local frame of `n`: `(t, b, n)`, right-handed.
+fn frame(n: Vec3) -> (Vec3, Vec3) {
+    n.any_orthonormal_pair()
+}
+
+/// Smith's exact masking for GGX (what visible-normal sampling is normalised by).
+fn smith_g1(alpha: f32, cos: f32) -> f32 {
+    let c2 = cos * cos;
+    2.0 * cos / (cos + (alpha * alpha + (1.0 - alpha * alpha) * c2).sqrt())
+}
+
+/// A half vector drawn from GGX's distribution of normals visible from `wo` (Heitz 2018).
+#[must_use]
+pub fn sample_ggx_visible(alpha: f32, n: Vec3, wo: Vec3, u: Vec2) -> Vec3 {
+    let (t, b) = frame(n);
+    let v = Vec3::new(wo.dot(t), wo.dot(b), wo.dot(n));
+    // The view direction stretched to the hemisphere configuration.
+    let vh = Vec3::new(alpha * v.x, alpha * v.y, v.z).normalize();
+    let len2 = vh.x * vh.x + vh.y * vh.y;
+    let t1 = if len2 > 0.0 { Vec3::new(-vh.y, vh.x, 0.0) / len2.sqrt() } else { Vec3::X };
+    let t2 = vh.cross(t1);
+    let r = u.x.sqrt();
+    let phi = 2.0 * PI * u.y;
+    let p1 = r * phi.cos();
+    let s = 0.5 * (1.0 + vh.z);
+    let p2 = (1.0 - s) * (1.0 - p1 * p1).max(0.0).sqrt() + s * r * phi.sin();
+    let nh = p1 * t1 + p2 * t2 + (1.0 - p1 * p1 - p2 * p2).max(0.0).sqrt() * vh;
+    let m = Vec3::new(alpha * nh.x, alpha * nh.y, nh.z.max(0.0)).normalize();
+    (m.x * t + m.y * b + m.z * n).normalize()
+}
+
+/// The solid-angle pdf of the half vector `h` under [`sample_ggx_visible`].
+#[must_use]
+pub fn ggx_visible_pdf(alpha: f32, n: Vec3, wo: Vec3, h: Vec3) -> f32 {
+    let cos_o = n.dot(wo);
+    if cos_o <= 0.0 {
+        return 0.0;
+    }
+    smith_g1(alpha, cos_o) * wo.dot(h).max(0.0) * ggx_d(alpha, n.dot(h)) / cos_o
+}
+
+/// A direction about `axis` with density `(s+1)/(2π)·cos^s` (the Phong lobe).
+#[must_use]
+pub fn sample_phong_lobe(axis: Vec3, s: f32, u: Vec2) -> Vec3 {
+    let cos = u.x.powf(1.0 / (s + 1.0));
+    let sin = (1.0 - cos * cos).max(0.0).sqrt();
+    let phi = 2.0 * PI * u.y;
+    let (t, b) = frame(axis);
+    (sin * phi.cos() * t + sin * phi.sin() * b + cos * axis).normalize()
+}
+
+/// The density of [`sample_phong_lobe`] at a direction of cosine `cos` to the axis.
+#[must_use]
+pub fn phong_lobe_pdf(s: f32, cos: f32) -> f32 {
+    if cos <= 0.0 {
+        0.0
+    } else {
+        (s + 1.0) / (2.0 * PI) * cos.powf(s)
+    }
+}
