@@ -46,7 +46,7 @@ fn formulas_against_values_computed_by_hand() {
     // Oren–Nayar, σ = 0.5, θi = θo = 45° in one plane (φ difference 0):
     // A = 1 - 0.125/0.58 = 0.7844828, B = 0.1125/0.34 = 0.3308824, sin α tan β = 0.7071068.
     let on = Material::Matte { kd: white, sigma: 0.5 }.eval(&h, dir(45.0, 180.0), dir(45.0, 180.0));
-    assert!(close(on.x, (0.7844828 + 0.3308824 * 0.7071068) * FRAC_1_PI, 1e-5), "{on}");
+    assert!(close(on.x, (0.7844828 + 0.3308824 * std::f32::consts::FRAC_1_SQRT_2) * FRAC_1_PI, 1e-5), "{on}");
     // Opposite azimuths: cos(φi - φo) < 0, only A remains.
     let on = Material::Matte { kd: white, sigma: 0.5 }.eval(&h, dir(45.0, 0.0), dir(45.0, 180.0));
     assert!(close(on.x, 0.7844828 * FRAC_1_PI, 1e-5), "{on}");
