@@ -10,6 +10,8 @@ mod description;
 mod tp1;
 mod tp2;
 mod tp4;
+mod tp5;
+mod tp6;
 mod tp7;
 
 pub use description::{CameraDesc, MeshSource, ObjectDesc, SceneDescription, ShapeDesc, MAX_COORDINATE};
@@ -79,7 +81,17 @@ pub fn load_builtin_model(name: &str) -> Result<LoadedMesh> {
 /// Every built-in scene: `(name, one-line summary)`.
 #[must_use]
 pub fn list() -> Vec<(&'static str, String)> {
-    NAMES.iter().map(|&n| (n, builtin(n).map(|d| d.summary).unwrap_or_default())).collect()
+    names().into_iter().map(|n| (n, builtin(n).map(|d| d.summary).unwrap_or_default())).collect()
+}
+
+/// Every built-in scene's name, session by session.
+fn names() -> Vec<&'static str> {
+    let (early, late) = NAMES.split_at(NAMES.len() - 1); // TP1–TP4 | TP7
+    let mut v = early.to_vec();
+    v.extend(tp5::SCENES.iter().map(|s| s.0));
+    v.extend(tp6::SCENES.iter().map(|s| s.0));
+    v.extend(late);
+    v
 }
 
 const NAMES: &[&str] = &[
@@ -152,7 +164,15 @@ pub fn builtin(name: &str) -> Result<SceneDescription> {
         )),
         "tp4-conference" => Ok(tp4_conference()),
         "tp7-implicit" => Ok(tp7::tp7_implicit()),
-        _ => Err(Error::UnknownScene(name.to_string())),
+        _ => {
+            if let Some(&(n, sweep)) = tp5::SCENES.iter().find(|s| s.0 == name) {
+                return Ok(tp5::scene(n, sweep));
+            }
+            if let Some(&(n, spheres, quad)) = tp6::SCENES.iter().find(|s| s.0 == name) {
+                return Ok(tp6::scene(n, spheres, quad));
+            }
+            Err(Error::UnknownScene(name.to_string()))
+        }
     }
 }
 
