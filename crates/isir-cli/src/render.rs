@@ -185,6 +185,9 @@ fn render_in_pool(a: &RenderArgs) -> anyhow::Result<()> {
     bar.finish_and_clear();
 
     image.save(&a.output, desc.display).with_context(|| "writing the image".to_string())?;
+    if image.pixels.iter().all(|&c| c == scene.background) {
+        warn_all(&[format!("{name}: nothing is in view: every pixel of the image is the background")]);
+    }
     let bad = stats.samples;
     if bad.nan + bad.inf > 0 {
         warn_all(&[format!("{} NaN and {} infinite pixel samples were dropped (each pixel averages its other samples)", bad.nan, bad.inf)]);

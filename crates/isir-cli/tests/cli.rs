@@ -667,3 +667,19 @@ fn a_gltf_file_with_its_buffer_beside_it_renders() {
     one_line_error(code, &err, "tri.gltf: buffer 0:");
     assert!(err.contains("tri.bin"), "{err}");
 }
+
+#[test]
+fn an_image_of_nothing_comes_with_a_warning() {
+    // An image where every pixel is the background says so.
+    let obj = tmp("far-apart.obj");
+    // Two tiny triangles 1e6 apart: framed to see both, each is under a pixel.
+    std::fs::write(&obj, "v 0 0 0\nv 1e-6 0 0\nv 0 1e-6 0\nv 1e6 1e6 1e6\nv 1e6 1e6 1.000001e6\nv 1e6 1.000001e6 1e6\nf 1 2 3\nf 4 5 6\n")
+        .unwrap();
+    let (code, _, err) =
+        isir(&["render", obj.to_str().unwrap(), "-o", tmp("far-apart.png").to_str().unwrap(), "--width", "16", "--height", "12"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains("nothing is in view"), "{err}");
+    let (code, _, err) = isir(&["render", "tp1-sphere", "-o", tmp("sphere-seen.png").to_str().unwrap(), "--width", "16", "--height", "12"]);
+    assert_eq!(code, 0);
+    assert!(!err.contains("nothing is in view"), "{err}");
+}

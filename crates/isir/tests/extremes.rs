@@ -60,3 +60,21 @@ fn cameras_that_cannot_form_rays_are_refused() {
         assert!(e.contains(why), "{cam:?}: {e}");
     }
 }
+
+#[test]
+fn flat_models_in_any_axis_plane_are_framed_face_on_enough_to_see() {
+    // A unit square in the xy, yz and xz planes: none may be seen edge-on (an empty image).
+    for (name, a, b) in [("xy", isir::Vec3::X, isir::Vec3::Y), ("yz", isir::Vec3::Y, isir::Vec3::Z), ("xz", isir::Vec3::X, isir::Vec3::Z)] {
+        let mesh = isir::TriangleMesh::new(vec![isir::Vec3::ZERO, a, a + b, b], vec![], vec![[0, 1, 2], [0, 2, 3]]);
+        let (camera, _) = CameraDesc::framing(&mesh.aabb()).unwrap();
+        let cam = camera.build(1.5);
+        let (w, h) = (48, 32);
+        let seen = (0..w * h)
+            .filter(|i| {
+                let ray = cam.generate_ray((i % w) as f32 / w as f32, (i / w) as f32 / h as f32);
+                mesh.intersect_brute_force(&ray, 0.0, f32::INFINITY).is_some()
+            })
+            .count();
+        assert!(seen > w * h / 20, "the {name} square covers only {seen} of {} pixels", w * h);
+    }
+}

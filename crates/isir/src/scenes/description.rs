@@ -44,9 +44,10 @@ impl CameraDesc {
         Camera::new(self.position, self.look_at, self.up, self.fovy, aspect)
     }
 
-    /// A camera that sees the whole box `bounds`, from the front (+z) and a little above,
-    /// and a point light at the camera that lights what it sees: how a mesh file given
-    /// alone is framed. Computed in double precision, so it is finite for any box within
+    /// A camera that sees the whole box `bounds` in a three-quarter view (from -z, the
+    /// side the course's models face, and from +x and above, so that no axis-aligned flat
+    /// model is seen edge-on), and a point light at the camera that lights what it sees:
+    /// how a mesh file given alone is framed. Computed in double precision, so it is finite for any box within
     /// [`MAX_COORDINATE`].
     ///
     /// # Errors
@@ -58,7 +59,7 @@ impl CameraDesc {
         check_extent("the model", bounds.min.abs().max(bounds.max.abs()).max_element())?;
         let (min, max) = (bounds.min.as_dvec3(), bounds.max.as_dvec3());
         let (c, r) = ((min + max) * 0.5, (max - min).length().max(1e-6));
-        let eye = c + glam::DVec3::new(0.0, 0.25, 1.0).normalize() * r * 1.1;
+        let eye = c + glam::DVec3::new(0.6, 0.5, -1.0).normalize() * r * 1.1;
         let camera = CameraDesc::new(eye.as_vec3(), c.as_vec3());
         let light = Light::Point { position: eye.as_vec3(), color: WHITE, power: (1.2 * r * r) as f32 };
         Ok((camera, light))
