@@ -2,6 +2,7 @@
 //! and benchmark the acceleration structures against Embree.
 
 mod bench;
+mod info;
 mod render;
 mod trace;
 
@@ -17,10 +18,12 @@ struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Command {
-    /// Render a built-in scene (see `isir scenes`) or a mesh file (OBJ or PLY).
+    /// Render a built-in scene (see `isir scenes`) or a mesh file (OBJ, PLY or glTF).
     Render(render::RenderArgs),
     /// List the built-in scenes.
     Scenes,
+    /// Describe a mesh file: format, triangles, vertices, bounds, materials, what was dropped.
+    Info(info::InfoArgs),
     /// Write a ray set of a scene to a ray file (docs/RAYS.md).
     Rays(trace::RaysArgs),
     /// Trace a ray file against a mesh and print `key: value` figures.
@@ -53,7 +56,7 @@ pub fn threads_phrase(n: usize) -> String {
     }
 }
 
-/// A mesh argument: a mesh file (OBJ or PLY), or the name of a built-in model.
+/// A mesh argument: a mesh file (OBJ, PLY or glTF), or the name of a built-in model.
 pub fn load_mesh(arg: &std::path::Path) -> anyhow::Result<isir::obj::LoadedMesh> {
     let name = arg.to_string_lossy();
     if !arg.exists() && isir::scenes::builtin_models().contains(&name.as_ref()) {
@@ -76,6 +79,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Some(Command::Rays(a)) => trace::rays(a),
         Some(Command::Trace(a)) => trace::trace(a),
         Some(Command::Bench(a)) => bench::run(a),
+        Some(Command::Info(a)) => info::run(a),
         Some(Command::Scenes) => {
             for (name, summary) in isir::scenes::list() {
                 println!("{name:<16} {summary}");

@@ -683,3 +683,25 @@ fn an_image_of_nothing_comes_with_a_warning() {
     assert_eq!(code, 0);
     assert!(!err.contains("nothing is in view"), "{err}");
 }
+
+#[test]
+fn info_describes_a_mesh_file_and_names_what_was_dropped() {
+    let obj = tmp("info.obj");
+    std::fs::write(&obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 2\nl 1 2\n").unwrap();
+    let (code, out, err) = isir(&["info", obj.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    for needle in [
+        "format:     Wavefront OBJ",
+        "triangles:  2 (1 degenerate",
+        "vertices:   3",
+        "bounds:     [0, 0, 0] to [1, 1, 0]",
+        "polylines ('l') are not rendered",
+    ] {
+        assert!(out.contains(needle), "'{needle}' missing from:\n{out}");
+    }
+    let (code, out, _) = isir(&["info", "uvsphere"]);
+    assert_eq!(code, 0);
+    assert!(out.contains("triangles:  960"), "{out}");
+    let (code, _, err) = isir(&["info", tmp("none.glb").to_str().unwrap()]);
+    one_line_error(code, &err, "none.glb");
+}

@@ -191,7 +191,8 @@ pub fn parse_gltf(path: &Path, bytes: &[u8], load_uri: impl Fn(&str) -> Result<V
     if stats.degenerate > 0 {
         warnings.push(format!("{} degenerate triangles (zero area or non-finite vertices) are never hit", stats.degenerate));
     }
-    Ok(LoadedMesh { mesh, materials, warnings })
+    let format = if is_glb(bytes) { "glTF 2.0 (binary .glb)" } else { "glTF 2.0" }.into();
+    Ok(LoadedMesh { mesh, materials, warnings, format })
 }
 
 /// Check that `a` is of one of `types` with `dims`, not normalized, and lies inside its

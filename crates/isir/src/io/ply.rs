@@ -261,5 +261,10 @@ pub fn parse_ply(path: &Path, bytes: &[u8]) -> Result<LoadedMesh> {
     if stats.degenerate > 0 {
         warnings.push(format!("{} degenerate triangles (zero area or non-finite vertices) are never hit", stats.degenerate));
     }
-    Ok(LoadedMesh { mesh, materials: Vec::new(), warnings })
+    let format = match header.encoding {
+        ply_rs_bw::ply::Encoding::Ascii => "PLY (ASCII)",
+        ply_rs_bw::ply::Encoding::BinaryLittleEndian => "PLY (binary little endian)",
+        ply_rs_bw::ply::Encoding::BinaryBigEndian => "PLY (binary big endian)",
+    };
+    Ok(LoadedMesh { mesh, materials: Vec::new(), warnings, format: format.into() })
 }

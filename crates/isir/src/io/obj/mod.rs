@@ -60,6 +60,8 @@ pub struct LoadedMesh {
     pub materials: Vec<FileMaterial>,
     /// Things handled but worth telling, one line each.
     pub warnings: Vec<String>,
+    /// The file's format, for people: `Wavefront OBJ`, `PLY (binary little endian)`, ...
+    pub format: String,
 }
 
 /// The input limits from the environment (see [`ReadLimits::from_env`]), or an error
@@ -227,7 +229,7 @@ pub(crate) fn parse_obj_inner(
     if stats.degenerate > 0 && report_degenerate {
         warnings.push(format!("{} degenerate triangles (zero area or non-finite vertices) are never hit", stats.degenerate));
     }
-    Ok(LoadedMesh { mesh, materials, warnings })
+    Ok(LoadedMesh { mesh, materials, warnings, format: "Wavefront OBJ".into() })
 }
 
 /// The colour of a material's `Kd`: white when absent or not finite (NaN would blacken
