@@ -80,7 +80,7 @@ pub fn render_aov(scene: &Scene, camera: &Camera, width: u32, height: u32, aov: 
         .map(|i| {
             let (x, y) = (i % width, i / width);
             let ray = camera.generate_ray((x as f32 + 0.5) / width as f32, (y as f32 + 0.5) / height as f32);
-            let hit = scene.intersect(&ray, 0.0, f32::INFINITY).map(|h| (scene.material(&h).flat_color(), h.normal, h.t));
+            let hit = scene.intersect(&ray, 0.0, f32::INFINITY).map(|h| (scene.material(&h).color_at(&h), h.normal, h.t));
             let (nodes, tests) = if aov == Aov::Cost {
                 let c = scene.cost(&ray, 0.0, f32::INFINITY);
                 (c.nodes, c.triangles)

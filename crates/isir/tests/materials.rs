@@ -24,6 +24,7 @@ fn hit() -> Hit {
         prim: 0,
         u: 0.0,
         v: 0.0,
+        uv: Vec2::ZERO,
         material: 0,
     }
 }

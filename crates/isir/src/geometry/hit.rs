@@ -34,6 +34,9 @@ pub struct Hit {
     pub u: f32,
     /// Barycentrics on a triangle (0 otherwise).
     pub v: f32,
+    /// Texture coordinates at the hit: interpolated from a mesh's per-vertex UVs, zero
+    /// where there are none.
+    pub uv: glam::Vec2,
     /// The material at the hit.
     pub material: MaterialId,
 }

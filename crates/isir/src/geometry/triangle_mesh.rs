@@ -547,6 +547,17 @@ impl TriangleMesh {
         (p, point_error + along_normal)
     }
 
+    /// The texture coordinates at barycentrics `(u, v)` of triangle `prim` (zero when the
+    /// mesh has none).
+    #[must_use]
+    pub fn texture_uv(&self, prim: u32, u: f32, v: f32) -> Vec2 {
+        if self.uvs.is_empty() {
+            return Vec2::ZERO;
+        }
+        let [a, b, c] = self.triangles[prim as usize];
+        (1.0 - u - v) * self.uvs[a as usize] + u * self.uvs[b as usize] + v * self.uvs[c as usize]
+    }
+
     /// The shading normal at barycentrics `(u, v)` of triangle `prim` (not yet facing the ray).
     #[must_use]
     pub fn shading_normal(&self, prim: u32, u: f32, v: f32) -> Vec3 {

@@ -11,5 +11,5 @@ pub(super) fn li(scene: &Scene, ray: &Ray, t_min: f32, t_max: f32, counters: &mu
     let Some(hit) = scene.intersect(ray, t_min, t_max) else {
         return scene.background;
     };
-    scene.material(&hit).flat_color() * hit.normal.dot(-ray.direction).max(0.0)
+    scene.material(&hit).color_at(&hit) * hit.normal.dot(-ray.direction).max(0.0)
 }

@@ -1,7 +1,7 @@
 //! glTF 2.0 meshes, `.gltf` (JSON with its buffers beside it or in `data:` URIs) and
 //! `.glb` (binary), through the `gltf` crate: the default scene's node hierarchy with its
 //! transforms, indexed or not indexed triangles, normals, the first texture coordinates,
-//! and each material's base colour factor. Every node's mesh is placed in world space and
+//! and each material's base colour factor and texture. Every node's mesh is placed in world space and
 //! the whole scene becomes one [`TriangleMesh`], one material slot per glTF material.
 //!
 //! Every accessor is checked before it is read (component type, dimensions, offsets and
@@ -12,13 +12,16 @@
 //! - invalid JSON or GLB, a validation failure, a missing or short buffer, an accessor
 //!   outside its data, a cycle in the node hierarchy, an index past the last vertex:
 //!   an error;
-//! - primitives that are not triangles (points, lines, strips, fans), sparse accessors and
-//!   base-colour textures: left out, counted in a warning (textures: the factor is used);
+//! - primitives that are not triangles (points, lines, strips, fans) and sparse
+//!   accessors: left out, counted in a warning;
+//! - a base-colour texture that cannot be read or decoded: a warning, the colour factor
+//!   is used (a readable one multiplies the factor, sampled at TEXCOORD_0);
 //! - NaN coordinates, zero-area triangles: never hit, counted in a warning.
 
 use crate::error::{Error, Result};
 use crate::geometry::TriangleMesh;
 use crate::io::obj::{FileMaterial, LoadedMesh};
+use crate::materials::Texture;
 use crate::math::color::Color;
 use base64::Engine;
 use glam::{Mat3, Mat4, Vec2, Vec3};
@@ -69,16 +72,44 @@ pub fn parse_gltf(path: &Path, bytes: &[u8], load_uri: impl Fn(&str) -> Result<V
         buffers.push(data);
     }
     // ---- Materials: one slot each, and a last one for primitives without a material ----
-    let materials: Vec<FileMaterial> = doc
-        .materials()
-        .map(|m| {
-            let [r, g, b, _] = m.pbr_metallic_roughness().base_color_factor();
-            let c = Color::new(r, g, b);
-            let diffuse = if c.is_finite() { c.clamp(Vec3::ZERO, Vec3::ONE) } else { Vec3::ONE };
-            FileMaterial { name: m.name().map_or_else(|| format!("material{}", m.index().unwrap_or(0)), str::to_string), diffuse }
-        })
-        .collect();
-    let textured = doc.materials().filter(|m| m.pbr_metallic_roughness().base_color_texture().is_some()).count();
+    let mut warnings = Vec::new();
+    let mut materials: Vec<FileMaterial> = Vec::new();
+    for m in doc.materials() {
+        let pbr = m.pbr_metallic_roughness();
+        let [r, g, b, _] = pbr.base_color_factor();
+        let c = Color::new(r, g, b);
+        let diffuse = if c.is_finite() { c.clamp(Vec3::ZERO, Vec3::ONE) } else { Vec3::ONE };
+        let name = m.name().map_or_else(|| format!("material{}", m.index().unwrap_or(0)), str::to_string);
+        let mut texture = None;
+        if let Some(info) = pbr.base_color_texture() {
+            let image = info.texture().source();
+            let bytes = match image.source() {
+                gltf::image::Source::View { view, .. } => buffers
+                    .get(view.buffer().index())
+                    .and_then(|b| b.get(view.offset()..view.offset().checked_add(view.length())?))
+                    .map(<[u8]>::to_vec)
+                    .ok_or_else(|| format!("its buffer view {} is outside its buffer", view.index())),
+                gltf::image::Source::Uri { uri, .. } => match uri.strip_prefix("data:") {
+                    Some(rest) => rest
+                        .split_once(";base64,")
+                        .ok_or_else(|| "a data URI that is not base64".to_string())
+                        .and_then(|(_, p)| base64::engine::general_purpose::STANDARD.decode(p).map_err(|e| e.to_string())),
+                    None => load_uri(&percent_decode(uri)).map_err(|e| e.to_string()),
+                },
+            };
+            match bytes.and_then(|b| Texture::decode(&b)) {
+                Ok(t) if info.tex_coord() == 0 => texture = Some(std::sync::Arc::new(t)),
+                Ok(_) => warnings.push(format!(
+                    "material '{name}': its texture uses TEXCOORD_{}, isir reads only TEXCOORD_0; its colour factor is used",
+                    info.tex_coord()
+                )),
+                Err(why) => {
+                    warnings.push(format!("material '{name}': texture of image {}: {why}; its colour factor is used", image.index()))
+                }
+            }
+        }
+        materials.push(FileMaterial { name, diffuse, texture_name: None, texture });
+    }
     // ---- The default scene's nodes, in world space ----
     let scene = doc.default_scene().or_else(|| doc.scenes().next());
     let mut vertices = Vec::new();
@@ -141,7 +172,8 @@ pub fn parse_gltf(path: &Path, bytes: &[u8], load_uri: impl Fn(&str) -> Result<V
                         && check_accessor(&t, &buffers, &[DataType::F32], Dimensions::Vec2).is_ok()
                         && t.count() == pos.count() =>
                 {
-                    uvs.extend(reader.read_tex_coords(0).into_iter().flat_map(|t| t.into_f32()).map(Vec2::from));
+                    // glTF's v points down the image; isir's (OBJ's) up.
+                    uvs.extend(reader.read_tex_coords(0).into_iter().flat_map(|t| t.into_f32()).map(|[u, v]| Vec2::new(u, 1.0 - v)));
                 }
                 _ => all_uvs = false,
             }
@@ -169,15 +201,11 @@ pub fn parse_gltf(path: &Path, bytes: &[u8], load_uri: impl Fn(&str) -> Result<V
             slots.extend(std::iter::repeat_n(slot, triangles.len() - first));
         }
     }
-    let mut warnings = Vec::new();
     if skipped_modes > 0 {
         warnings.push(format!("{skipped_modes} primitives that are not triangle lists (points, lines, strips, fans) left out"));
     }
     if sparse > 0 {
         warnings.push(format!("{sparse} primitives with sparse accessors left out (not read yet)"));
-    }
-    if textured > 0 {
-        warnings.push(format!("{textured} materials with a base-colour texture: their colour factor is used (textures are not read yet)"));
     }
     let mut mesh = TriangleMesh::new(vertices, if all_normals { normals } else { Vec::new() }, triangles);
     mesh.material_slots = slots;

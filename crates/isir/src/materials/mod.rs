@@ -16,6 +16,9 @@
 //!   direction is drawn (the path ends).
 
 mod lobes;
+mod texture;
+
+pub use texture::{srgb_to_linear, Texture, MAX_TEXELS};
 
 pub use lobes::{
     cook_torrance_spec, ggx_d, ggx_visible_pdf, oren_nayar, phong_cos, phong_lobe_pdf, plastic, sample_ggx_visible, sample_phong_lobe,
@@ -41,6 +44,16 @@ pub enum Material {
     Color(Color),
     /// Lambertian diffuse: `kd / π`.
     Lambert(Color),
+    /// A file's material with a colour texture (`map_Kd`, glTF's base-colour texture): the
+    /// course's `ColorMaterial` whose colour is `tint × texture(uv)` at each hit (`Kd`
+    /// multiplies `map_Kd`, as MTL says). The path tracer treats it as Lambert with that
+    /// albedo, like [`Material::Color`].
+    Textured {
+        /// The texture.
+        texture: std::sync::Arc<Texture>,
+        /// What the texture is multiplied by.
+        tint: Color,
+    },
     /// The course's `MatteMaterial`: Oren–Nayar of roughness `sigma` (radians, the
     /// standard deviation of the facet slopes), [`oren_nayar`]. `sigma` 0 is Lambert.
     Matte {
@@ -111,8 +124,18 @@ impl Material {
     pub fn flat_color(&self) -> Color {
         match self {
             Material::Color(c) | Material::Lambert(c) => *c,
+            Material::Textured { tint, .. } => *tint,
             Material::Matte { kd, .. } | Material::Plastic { kd, .. } | Material::CookTorrance { kd, .. } => *kd,
             Material::Mirror | Material::Transparent { .. } => WHITE,
+        }
+    }
+
+    /// The colour shown by the ray-cast integrator at `hit` (textures looked up there).
+    #[must_use]
+    pub fn color_at(&self, hit: &Hit) -> Color {
+        match self {
+            Material::Textured { texture, tint } => *tint * texture.sample(hit.uv),
+            m => m.flat_color(),
         }
     }
 
@@ -122,6 +145,7 @@ impl Material {
     pub fn shade(&self, ray: &Ray, hit: &Hit, light: &LightSample) -> Color {
         match self {
             Material::Color(c) => *c,
+            Material::Textured { .. } => self.color_at(hit),
             Material::Lambert(kd) => *kd * FRAC_1_PI,
             Material::Mirror | Material::Transparent { .. } => BLACK,
             _ => self.brdf(hit.normal, -ray.direction.normalize_or_zero(), light.direction),
@@ -144,6 +168,8 @@ impl Material {
                 let m = metalness.clamp(0.0, 1.0);
                 (1.0 - m) * oren_nayar(kd, roughness, n, wo, wi) + m * cook_torrance_spec(f0, roughness, n, wo, wi)
             }
+            // Needs the hit's texture coordinates: [`Material::eval`] looks it up.
+            Material::Textured { tint, .. } => tint * FRAC_1_PI,
             Material::Mirror | Material::Transparent { .. } => BLACK,
         }
     }
@@ -198,7 +224,10 @@ impl Material {
         if n.dot(wo) <= 0.0 || n.dot(wi) <= 0.0 {
             return BLACK;
         }
-        self.brdf(n, wo, wi)
+        match self {
+            Material::Textured { .. } => self.color_at(hit) * FRAC_1_PI,
+            _ => self.brdf(n, wo, wi),
+        }
     }
 
     /// The solid-angle pdf with which [`Material::sample`] draws `wi`.
@@ -230,11 +259,11 @@ impl Material {
             return None;
         }
         match self {
-            Material::Color(c) | Material::Lambert(c) => {
+            Material::Color(_) | Material::Lambert(_) | Material::Textured { .. } => {
                 let wi = square_to_cosine_hemisphere(n, u);
                 let pdf = square_to_cosine_hemisphere_pdf(n, wi);
                 // f·cos/pdf = (c/π)·cos / (cos/π) = c.
-                (pdf > 0.0).then_some(BsdfSample { wi, weight: *c, pdf, delta: false })
+                (pdf > 0.0).then_some(BsdfSample { wi, weight: self.color_at(hit), pdf, delta: false })
             }
             Material::Matte { .. } | Material::Plastic { .. } | Material::CookTorrance { .. } => {
                 // A mixture: the cosine lobe, or the glossy one with probability p

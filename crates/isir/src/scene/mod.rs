@@ -92,6 +92,10 @@ impl Scene {
             prim,
             u,
             v,
+            uv: match &o.geometry {
+                Geometry::Mesh(m) => m.texture_uv(prim, u, v),
+                _ => glam::Vec2::ZERO,
+            },
             material: o.materials[slot.min(o.materials.len() - 1)],
         })
     }

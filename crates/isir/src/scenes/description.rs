@@ -296,7 +296,10 @@ impl SceneDescription {
                                 .materials
                                 .iter()
                                 .map(|m| {
-                                    materials.push(Material::Color(m.diffuse));
+                                    materials.push(match &m.texture {
+                                        Some(t) => Material::Textured { texture: t.clone(), tint: m.diffuse },
+                                        None => Material::Color(m.diffuse),
+                                    });
                                     materials.len() as MaterialId - 1
                                 })
                                 .collect();

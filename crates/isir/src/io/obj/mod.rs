@@ -49,6 +49,10 @@ pub struct FileMaterial {
     pub name: String,
     /// Its diffuse colour `Kd` (white when absent or not finite, negative parts clamped to 0).
     pub diffuse: Color,
+    /// The colour texture it names (`map_Kd`), as the file writes it.
+    pub texture_name: Option<String>,
+    /// That texture, decoded, when the loader could read it (see [`load_obj`]).
+    pub texture: Option<std::sync::Arc<crate::materials::Texture>>,
 }
 
 /// A loaded mesh with its file's materials and what loading had to say.
@@ -116,6 +120,25 @@ pub fn check_name(path: &Path) -> Result<()> {
 /// # Errors
 /// As [`parse_obj`].
 pub fn parse_obj_beside(path: &Path, bytes: &[u8], limits: &ReadLimits) -> Result<LoadedMesh> {
+    let mut loaded = parse_obj_only(path, bytes, limits)?;
+    // Colour textures (`map_Kd`), beside the file: decoded once; one that cannot be read
+    // is a warning and its material keeps its flat colour.
+    let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    for m in &mut loaded.materials {
+        let Some(name) = m.texture_name.clone() else { continue };
+        // MTL options (`-bm 1 -s 2 2 file.png`) come first; the file is the last word.
+        let file = name.split_whitespace().last().unwrap_or(&name).to_string();
+        let p = dir.join(&file);
+        match input::read_file(&p, limits).map_err(|e| e.to_string()).and_then(|b| crate::materials::Texture::decode(&b)) {
+            Ok(t) => m.texture = Some(std::sync::Arc::new(t)),
+            Err(why) => loaded.warnings.push(format!("material '{}': texture {file}: {why}; its flat colour is used", m.name)),
+        }
+    }
+    Ok(loaded)
+}
+
+/// [`parse_obj_beside`] without the textures.
+fn parse_obj_only(path: &Path, bytes: &[u8], limits: &ReadLimits) -> Result<LoadedMesh> {
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
     parse_obj(path, bytes, |mtl| {
         let p = dir.join(mtl);
@@ -176,8 +199,11 @@ pub(crate) fn parse_obj_inner(
         }
     };
     let mut warnings = mtl_warnings.into_inner();
-    let materials: Vec<FileMaterial> =
-        materials.unwrap_or_default().into_iter().map(|m| FileMaterial { diffuse: diffuse(m.diffuse), name: m.name }).collect();
+    let materials: Vec<FileMaterial> = materials
+        .unwrap_or_default()
+        .into_iter()
+        .map(|m| FileMaterial { diffuse: diffuse(m.diffuse), name: m.name, texture_name: m.diffuse_texture, texture: None })
+        .collect();
     warnings.extend(scan.warnings(&text, &libraries.into_inner()));
 
     let mut vertices = Vec::new();
