@@ -16,6 +16,7 @@ fn scene_of(geometry: Geometry) -> Scene {
         lights: Vec::new(),
         background: Color::ZERO,
         warnings: Vec::new(),
+        top_level: None,
     }
 }
 

@@ -5,6 +5,7 @@
 
 mod hit;
 pub mod implicit;
+mod instance;
 mod plane;
 mod sphere;
 mod triangle_mesh;
@@ -12,6 +13,7 @@ mod triangle_mesh;
 pub use crate::accel::MeshHit;
 pub use hit::{Hit, MaterialId};
 pub use implicit::{Implicit, Sdf};
+pub use instance::Instance;
 pub use plane::Plane;
 pub use sphere::Sphere;
 pub use triangle_mesh::{MeshAccel, MeshStats, Shading, TriangleMesh, OVERLAP_WARNING};
@@ -27,4 +29,6 @@ pub enum Geometry {
     Mesh(Box<TriangleMesh>),
     /// An implicit surface, sphere traced inside its bounding box.
     Implicit(Box<Implicit>),
+    /// A shared mesh placed by a transform.
+    Instance(Box<Instance>),
 }

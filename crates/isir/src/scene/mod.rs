@@ -5,10 +5,12 @@
 //! code reads like the course; below it ([`crate::accel`]) it is laid out for speed. A
 //! scene is built from a [`crate::SceneDescription`] ([`crate::scenes`]).
 
+use crate::accel::bvh::{Bvh, BvhQuality};
 use crate::accel::wide::TraversalStats;
 use crate::geometry::{Geometry, Hit, TriangleMesh};
 use crate::lights::Light;
 use crate::materials::{Material, MaterialId};
+use crate::math::aabb::Aabb;
 use crate::math::color::Color;
 use crate::math::ray::Ray;
 use glam::Vec3;
@@ -38,7 +40,26 @@ pub struct Scene {
     /// What loading found odd but could handle (degenerate triangles, missing files of
     /// materials...), one line each.
     pub warnings: Vec<String>,
+    /// A BVH over the bounded objects' world boxes, when there are many of them (see
+    /// [`Scene::build_top_level`]); `None`: the objects are tried one by one.
+    pub top_level: Option<TopLevel>,
 }
+
+/// The scene's own BVH (the SAH build of [`crate::accel::bvh`] over the objects' world
+/// boxes), and the unbounded objects (planes) tried after it.
+#[derive(Clone, Debug)]
+pub struct TopLevel {
+    bvh: Bvh,
+    /// Object index of each BVH primitive.
+    bounded: Vec<u32>,
+    /// Objects without a finite box.
+    unbounded: Vec<u32>,
+}
+
+/// Objects with a finite box from which [`SceneDescription`](crate::SceneDescription)
+/// builds a top-level BVH. Below it the objects are looped over (the course's scenes have
+/// a handful), which keeps their images bit for bit as they were.
+pub const TOP_LEVEL_MIN_OBJECTS: usize = 16;
 
 impl Scene {
     /// The closest hit in `[t_min, t_max)`. Invalid rays (NaN, zero direction) hit nothing.
@@ -49,17 +70,29 @@ impl Scene {
         }
         // Phase 1: the closest (object, t, prim, u, v), nothing else.
         let mut best: Option<(usize, f32, u32, f32, f32)> = None;
-        let mut t_best = t_max;
-        for (i, o) in self.objects.iter().enumerate() {
-            let found = match &o.geometry {
-                Geometry::Sphere(s) => s.intersect(ray, t_min, t_best).map(|t| (t, 0, 0.0, 0.0)),
-                Geometry::Plane(p) => p.intersect(ray, t_min, t_best).map(|t| (t, 0, 0.0, 0.0)),
-                Geometry::Mesh(m) => m.intersect(ray, t_min, t_best).map(|h| (h.t, h.prim, h.u, h.v)),
-                Geometry::Implicit(s) => s.intersect(ray, t_min, t_best).map(|t| (t, 0, 0.0, 0.0)),
-            };
-            if let Some((t, prim, u, v)) = found {
-                t_best = t;
-                best = Some((i, t, prim, u, v));
+        match &self.top_level {
+            None => {
+                let mut t_best = t_max;
+                for i in 0..self.objects.len() {
+                    if let Some((t, prim, u, v)) = self.hit_object(i, ray, t_min, t_best) {
+                        t_best = t;
+                        best = Some((i, t, prim, u, v));
+                    }
+                }
+            }
+            Some(top) => {
+                let mut t_best = top.bvh.intersect(ray, t_min, t_max, |k, t_now| {
+                    let i = top.bounded[k as usize] as usize;
+                    let (t, prim, u, v) = self.hit_object(i, ray, t_min, t_now)?;
+                    best = Some((i, t, prim, u, v));
+                    Some(t)
+                });
+                for &i in &top.unbounded {
+                    if let Some((t, prim, u, v)) = self.hit_object(i as usize, ray, t_min, t_best) {
+                        t_best = t;
+                        best = Some((i as usize, t, prim, u, v));
+                    }
+                }
             }
         }
         // Phase 2: the surface interaction of that one hit.
@@ -79,6 +112,12 @@ impl Scene {
                 let n = s.normal(p);
                 ((p, e), n, n, 0)
             }
+            Geometry::Instance(m) => (
+                m.surface_point(prim, u, v),
+                m.shading_normal(prim, u, v),
+                m.face_normal(prim),
+                m.mesh.material_slots[prim as usize] as usize,
+            ),
         };
         let face = |n: Vec3| if ray.direction.dot(n) > 0.0 { -n } else { n };
         Some(Hit {
@@ -94,6 +133,7 @@ impl Scene {
             v,
             uv: match &o.geometry {
                 Geometry::Mesh(m) => m.texture_uv(prim, u, v),
+                Geometry::Instance(m) => m.texture_uv(prim, u, v),
                 _ => glam::Vec2::ZERO,
             },
             material: o.materials[slot.min(o.materials.len() - 1)],
@@ -103,13 +143,70 @@ impl Scene {
     /// True when anything meets the ray in `[t_min, t_max)` (the shadow-ray query).
     #[must_use]
     pub fn occluded(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
-        ray.is_valid()
-            && self.objects.iter().any(|o| match &o.geometry {
-                Geometry::Sphere(s) => s.intersect(ray, t_min, t_max).is_some(),
-                Geometry::Plane(p) => p.intersect(ray, t_min, t_max).is_some(),
-                Geometry::Mesh(m) => m.occluded(ray, t_min, t_max),
-                Geometry::Implicit(s) => s.intersect(ray, t_min, t_max).is_some(),
-            })
+        if !ray.is_valid() {
+            return false;
+        }
+        match &self.top_level {
+            None => (0..self.objects.len()).any(|i| self.blocks(i, ray, t_min, t_max)),
+            Some(top) => {
+                top.bvh.occluded(ray, t_min, t_max, |k, t| self.blocks(top.bounded[k as usize] as usize, ray, t_min, t))
+                    || top.unbounded.iter().any(|&i| self.blocks(i as usize, ray, t_min, t_max))
+            }
+        }
+    }
+
+    /// The closest hit of object `i` in `[t_min, t_max)`: `(t, prim, u, v)`.
+    #[inline]
+    fn hit_object(&self, i: usize, ray: &Ray, t_min: f32, t_max: f32) -> Option<(f32, u32, f32, f32)> {
+        match &self.objects[i].geometry {
+            Geometry::Sphere(s) => s.intersect(ray, t_min, t_max).map(|t| (t, 0, 0.0, 0.0)),
+            Geometry::Plane(p) => p.intersect(ray, t_min, t_max).map(|t| (t, 0, 0.0, 0.0)),
+            Geometry::Mesh(m) => m.intersect(ray, t_min, t_max).map(|h| (h.t, h.prim, h.u, h.v)),
+            Geometry::Implicit(s) => s.intersect(ray, t_min, t_max).map(|t| (t, 0, 0.0, 0.0)),
+            Geometry::Instance(m) => m.intersect(ray, t_min, t_max).map(|h| (h.t, h.prim, h.u, h.v)),
+        }
+    }
+
+    /// True when object `i` meets the ray in `[t_min, t_max)`.
+    #[inline]
+    fn blocks(&self, i: usize, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+        match &self.objects[i].geometry {
+            Geometry::Mesh(m) => m.occluded(ray, t_min, t_max),
+            Geometry::Instance(m) => m.occluded(ray, t_min, t_max),
+            _ => self.hit_object(i, ray, t_min, t_max).is_some(),
+        }
+    }
+
+    /// The world box of object `i`, when it has a finite one.
+    #[must_use]
+    pub fn object_bounds(&self, i: usize) -> Option<Aabb> {
+        let b = match &self.objects[i].geometry {
+            Geometry::Sphere(s) => Aabb::new(s.center - Vec3::splat(s.radius), s.center + Vec3::splat(s.radius)),
+            Geometry::Plane(_) => return None,
+            Geometry::Mesh(m) => m.aabb(),
+            Geometry::Implicit(s) => s.bounds(),
+            Geometry::Instance(m) => m.bounds(),
+        };
+        (!b.is_empty() && b.min.is_finite() && b.max.is_finite()).then_some(b)
+    }
+
+    /// Build the top-level BVH over the objects' world boxes (SAH), the unbounded ones
+    /// (planes) kept aside; queries then visit only the objects along each ray. Objects
+    /// with an empty box (an empty mesh) can never be hit and are left out.
+    pub fn build_top_level(&mut self) {
+        let (mut boxes, mut bounded, mut unbounded) = (Vec::new(), Vec::new(), Vec::new());
+        for i in 0..self.objects.len() {
+            match self.object_bounds(i) {
+                Some(b) => {
+                    boxes.push(b);
+                    bounded.push(i as u32);
+                }
+                None if matches!(self.objects[i].geometry, Geometry::Plane(_)) => unbounded.push(i as u32),
+                None => {}
+            }
+        }
+        let bvh = Bvh::build(&boxes, BvhQuality::Sah);
+        self.top_level = Some(TopLevel { bvh, bounded, unbounded });
     }
 
     /// What the closest-hit query along `ray` costs: nodes visited and primitives tested
@@ -138,6 +235,11 @@ impl Scene {
                     s.intersect(ray, t_min, t_best)
                 }
                 Geometry::Mesh(m) => {
+                    let (h, c) = m.intersect_cost(ray, t_min, t_best);
+                    total = total + c;
+                    h.map(|h| h.t)
+                }
+                Geometry::Instance(m) => {
                     let (h, c) = m.intersect_cost(ray, t_min, t_best);
                     total = total + c;
                     h.map(|h| h.t)

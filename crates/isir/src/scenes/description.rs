@@ -6,15 +6,16 @@ use crate::accel::triangle::TriangleTest;
 use crate::accel::Accel;
 use crate::camera::Camera;
 use crate::error::{Error, Result};
-use crate::geometry::{Geometry, Implicit, Plane, Sdf, Shading, Sphere};
+use crate::geometry::{Geometry, Implicit, Instance, Plane, Sdf, Shading, Sphere};
 use crate::integrators::Integrator;
 use crate::io::image::Display;
 use crate::io::mesh;
+use crate::io::obj::FileMaterial;
 use crate::lights::Light;
 use crate::materials::{Material, MaterialId};
 use crate::math::aabb::Aabb;
 use crate::math::color::{Color, GREY, WHITE};
-use crate::scene::{Object, Scene};
+use crate::scene::{Object, Scene, TOP_LEVEL_MIN_OBJECTS};
 use glam::Vec3;
 use std::path::PathBuf;
 
@@ -131,6 +132,44 @@ pub enum ShapeDesc {
     },
     /// An implicit surface (TP7), sphere traced: a tree of signed distance functions.
     Implicit(Sdf),
+    /// A triangle mesh from a file, placed by a transform. Every object naming the same
+    /// file (and shading) shares one copy of the mesh and its BVH: an instance.
+    MeshInstance {
+        /// The file.
+        source: MeshSource,
+        /// Smooth or flat normals.
+        shading: Shading,
+        /// Where the mesh stands.
+        transform: Transform,
+    },
+}
+
+/// Scale, then rotate (degrees about x, then y, then z, each about the world axis), then
+/// translate.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Transform {
+    /// Translation.
+    pub translate: Vec3,
+    /// Rotation angles in degrees about x, y and z, applied in that order.
+    pub rotate: Vec3,
+    /// Uniform scale.
+    pub scale: f32,
+}
+
+impl Default for Transform {
+    fn default() -> Self {
+        Transform { translate: Vec3::ZERO, rotate: Vec3::ZERO, scale: 1.0 }
+    }
+}
+
+impl Transform {
+    /// The affine map.
+    #[must_use]
+    pub fn to_affine(&self) -> glam::Affine3A {
+        let r = self.rotate * (std::f32::consts::PI / 180.0);
+        let q = glam::Quat::from_rotation_z(r.z) * glam::Quat::from_rotation_y(r.y) * glam::Quat::from_rotation_x(r.x);
+        glam::Affine3A::from_scale_rotation_translation(Vec3::splat(self.scale), q, self.translate)
+    }
 }
 
 /// An object of a description.
@@ -229,6 +268,10 @@ impl SceneDescription {
         };
         let mut objects = Vec::new();
         let mut warnings = Vec::new();
+        // Meshes placed by several instances: loaded and built once (the mesh, the file's
+        // materials, their ids once pushed).
+        type Shared = (std::sync::Arc<crate::geometry::TriangleMesh>, Vec<FileMaterial>, Option<Vec<MaterialId>>);
+        let mut shared: std::collections::HashMap<String, Shared> = std::collections::HashMap::new();
         for desc in &self.objects {
             let chosen = lookup(&desc.material)?;
             let what = format!("object '{}'", desc.name);
@@ -256,6 +299,33 @@ impl SceneDescription {
                         check_extent(&what, b.min.abs().max(b.max.abs()).max_element())?;
                     }
                     (Geometry::Implicit(Box::new(implicit)), vec![chosen.unwrap_or(0)])
+                }
+                ShapeDesc::MeshInstance { source, shading, transform } => {
+                    let key = format!("{source:?} {shading:?}");
+                    if !shared.contains_key(&key) {
+                        let (mesh, file_mats, notes) = self.prepare_mesh(&desc.name, source, *shading, accel, triangle_test)?;
+                        warnings.extend(notes);
+                        shared.insert(key.clone(), (std::sync::Arc::new(mesh), file_mats, None));
+                    }
+                    let entry = shared.get_mut(&key).expect("inserted above");
+                    let mats = match chosen {
+                        Some(id) => vec![id; entry.1.len() + 1],
+                        None => entry
+                            .2
+                            .get_or_insert_with(|| {
+                                let mut ids: Vec<MaterialId> = entry.1.iter().map(|m| push_file_material(&mut materials, m)).collect();
+                                ids.push(0); // faces without a material
+                                ids
+                            })
+                            .clone(),
+                    };
+                    let instance = Instance::new(entry.0.clone(), transform.to_affine())
+                        .ok_or_else(|| Error::Scene(format!("{what}: the transform must be finite with a non-zero scale")))?;
+                    let b = instance.bounds();
+                    if !b.is_empty() {
+                        check_extent(&what, b.min.abs().max(b.max.abs()).max_element())?;
+                    }
+                    (Geometry::Instance(Box::new(instance)), mats)
                 }
                 ShapeDesc::Mesh { source, shading } => {
                     let loaded = match source {
@@ -292,17 +362,7 @@ impl SceneDescription {
                     let mats = match chosen {
                         Some(id) => vec![id; loaded.materials.len() + 1],
                         None => {
-                            let mut ids: Vec<MaterialId> = loaded
-                                .materials
-                                .iter()
-                                .map(|m| {
-                                    materials.push(match &m.texture {
-                                        Some(t) => Material::Textured { texture: t.clone(), tint: m.diffuse },
-                                        None => Material::Color(m.diffuse),
-                                    });
-                                    materials.len() as MaterialId - 1
-                                })
-                                .collect();
+                            let mut ids: Vec<MaterialId> = loaded.materials.iter().map(|m| push_file_material(&mut materials, m)).collect();
                             ids.push(0); // faces without a material
                             ids
                         }
@@ -312,6 +372,46 @@ impl SceneDescription {
             };
             objects.push(Object { name: desc.name.clone(), geometry, materials: mats });
         }
-        Ok(Scene { objects, materials, lights: self.lights.clone(), background: self.background, warnings })
+        let mut scene = Scene { objects, materials, lights: self.lights.clone(), background: self.background, warnings, top_level: None };
+        let bounded = (0..scene.objects.len()).filter(|&i| scene.object_bounds(i).is_some()).count();
+        if bounded >= TOP_LEVEL_MIN_OBJECTS {
+            scene.build_top_level();
+        }
+        Ok(scene)
     }
+
+    /// Load the mesh of an instance and build its acceleration structure: the mesh, the
+    /// file's materials, and the warnings (named after `name`, the first object using it).
+    fn prepare_mesh(
+        &self,
+        name: &str,
+        source: &MeshSource,
+        shading: Shading,
+        accel: Accel,
+        triangle_test: TriangleTest,
+    ) -> Result<(crate::geometry::TriangleMesh, Vec<FileMaterial>, Vec<String>)> {
+        let loaded = match source {
+            MeshSource::File(path) => mesh::load_mesh(path)?,
+            MeshSource::Builtin(model) => crate::scenes::load_builtin_model(model)?,
+        };
+        let mut notes: Vec<String> = loaded.warnings.iter().map(|w| format!("{name}: {w}")).collect();
+        let mut m = loaded.mesh;
+        m.shading = shading;
+        m.triangle_test = triangle_test;
+        m.build_accel(accel);
+        m.remove_overlaps();
+        if matches!(source, MeshSource::File(_)) && m.stats().duplicates > 0 {
+            notes.push(format!("{name}: {} duplicate triangles are hit as the first of each", m.stats().duplicates));
+        }
+        Ok((m, loaded.materials, notes))
+    }
+}
+
+/// The material of a file's material (a texture when it has one), pushed; its id.
+fn push_file_material(materials: &mut Vec<Material>, m: &FileMaterial) -> MaterialId {
+    materials.push(match &m.texture {
+        Some(t) => Material::Textured { texture: t.clone(), tint: m.diffuse },
+        None => Material::Color(m.diffuse),
+    });
+    materials.len() as MaterialId - 1
 }

@@ -14,7 +14,7 @@ mod tp5;
 mod tp6;
 mod tp7;
 
-pub use description::{CameraDesc, MeshSource, ObjectDesc, SceneDescription, ShapeDesc, MAX_COORDINATE};
+pub use description::{CameraDesc, MeshSource, ObjectDesc, SceneDescription, ShapeDesc, Transform, MAX_COORDINATE};
 
 use crate::error::{Error, Result};
 use crate::geometry::{Plane, Sdf, Shading, Sphere};
