@@ -2,6 +2,7 @@
 //! and benchmark the acceleration structures against Embree.
 
 mod bench;
+mod check;
 mod info;
 mod render;
 mod trace;
@@ -18,10 +19,12 @@ struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Command {
-    /// Render a built-in scene (see `isir scenes`) or a mesh file (OBJ, PLY or glTF).
+    /// Render a built-in scene (see `isir scenes`), a scene file (.toml) or a mesh file (OBJ, PLY or glTF).
     Render(render::RenderArgs),
     /// List the built-in scenes.
     Scenes,
+    /// Read a scene file (.toml), load its meshes and report what it holds, without rendering.
+    Check(check::CheckArgs),
     /// Describe a mesh file: format, triangles, vertices, bounds, materials, what was dropped.
     Info(info::InfoArgs),
     /// Write a ray set of a scene to a ray file (docs/RAYS.md).
@@ -80,6 +83,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Some(Command::Trace(a)) => trace::trace(a),
         Some(Command::Bench(a)) => bench::run(a),
         Some(Command::Info(a)) => info::run(a),
+        Some(Command::Check(a)) => check::run(a),
         Some(Command::Scenes) => {
             for (name, summary) in isir::scenes::list() {
                 println!("{name:<16} {summary}");

@@ -27,17 +27,20 @@ pub enum IntegratorArg {
 
 #[derive(Args, Debug)]
 pub struct RenderArgs {
-    /// A built-in scene name (`isir scenes`) or a mesh file (.obj, .ply, optionally .gz).
+    /// A built-in scene name (`isir scenes`), a scene file (.toml, docs/scene-format.md) or a
+    /// mesh file (.obj, .ply, .gltf, .glb, optionally .gz).
     pub scene: Option<String>,
     /// Output image: .png, or .exr for linear floats.
     #[arg(short, long, default_value = "isir.png")]
     pub output: PathBuf,
     /// Image width.
-    #[arg(long, default_value_t = 600)]
-    pub width: u32,
+    /// (default: the scene file's, else 600)
+    #[arg(long)]
+    pub width: Option<u32>,
     /// Image height.
-    #[arg(long, default_value_t = 400)]
-    pub height: u32,
+    /// (default: the scene file's, else 400)
+    #[arg(long)]
+    pub height: Option<u32>,
     /// Samples per pixel (default: the scene's).
     #[arg(long)]
     pub spp: Option<u32>,
@@ -68,6 +71,22 @@ pub struct RenderArgs {
     /// pixel, with a colour bar). Repeat or separate with commas.
     #[arg(long, value_delimiter = ',')]
     pub aov: Vec<Aov>,
+}
+
+/// True when `name` is a scene file (`.toml`).
+pub fn is_scene_file(name: &str) -> bool {
+    name.to_ascii_lowercase().ends_with(".toml")
+}
+
+/// The image size: the options, else the scene file's `[render]` size, else 600×400.
+fn image_size(a: &RenderArgs) -> anyhow::Result<(u32, u32)> {
+    let (mut w, mut h) = (600, 400);
+    if let Some(name) = a.scene.as_deref().filter(|n| is_scene_file(n)) {
+        let f = isir::scenes::load_scene_file(std::path::Path::new(name))?;
+        w = f.width.unwrap_or(w);
+        h = f.height.unwrap_or(h);
+    }
+    Ok((a.width.unwrap_or(w), a.height.unwrap_or(h)))
 }
 
 /// Where an AOV of the image `output` goes: `out.png` -> `out.cost.png`.
@@ -104,6 +123,11 @@ fn frame(path: &str, desc: &mut SceneDescription, scene: &mut Scene) -> anyhow::
 
 /// A built-in scene by name, or a scene around a mesh file, built on the current pool.
 pub fn build_scene(name: &str, accel: Accel, test: TriangleTest) -> anyhow::Result<(SceneDescription, Scene)> {
+    if is_scene_file(name) {
+        let d = isir::scenes::load_scene_file(std::path::Path::new(name))?.description;
+        let scene = d.build_with(accel, test)?;
+        return Ok((d, scene));
+    }
     match isir::scenes::builtin(name) {
         Ok(d) => {
             let scene = d.build_with(accel, test)?;
@@ -128,7 +152,8 @@ pub fn build_scene(name: &str, accel: Accel, test: TriangleTest) -> anyhow::Resu
 
 pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     // Every check before any work (the output's directory is writable, too).
-    isir::image::check_size(a.width, a.height)?;
+    let (width, height) = image_size(&a)?;
+    isir::image::check_size(width, height)?;
     isir::image::check_output_path(&a.output)?;
     for &aov in &a.aov {
         isir::image::check_output_path(&aov_path(&a.output, aov))?;
@@ -173,10 +198,11 @@ fn render_in_pool(a: &RenderArgs) -> anyhow::Result<()> {
     }
     warn_all(&integrator.warnings(&scene));
     let spp = a.spp.unwrap_or(desc.spp);
-    let renderer = Renderer::new(a.width, a.height).spp(spp).seed(a.seed);
+    let (width, height) = image_size(a)?;
+    let renderer = Renderer::new(width, height).spp(spp).seed(a.seed);
     let camera = desc.camera.build(renderer.aspect());
 
-    let bar = ProgressBar::new(u64::from(a.width) * u64::from(a.height));
+    let bar = ProgressBar::new(u64::from(width) * u64::from(height));
     bar.set_style(
         ProgressStyle::with_template("{spinner} {msg} [{bar:40}] {percent}% {elapsed_precise} (eta {eta})").unwrap().progress_chars("=> "),
     );
@@ -203,8 +229,8 @@ fn render_in_pool(a: &RenderArgs) -> anyhow::Result<()> {
     println!(
         "isir: {name} {}x{} {spp} spp, {}, {}, {}: build {:.3} s, render {:.3} s, {:.2} M rays ({:.2} M primary, {:.2} M shadow, {:.2} M secondary), \
          {:.2} Mrays/s, {samples} -> wrote {}",
-        a.width,
-        a.height,
+        width,
+        height,
         integrator.name(),
         accel.name(),
         threads_phrase(rayon::current_num_threads()),
@@ -218,7 +244,7 @@ fn render_in_pool(a: &RenderArgs) -> anyhow::Result<()> {
         a.output.display()
     );
     for &aov in &a.aov {
-        let (image, stats) = render_aov(&scene, &camera, a.width, a.height, aov);
+        let (image, stats) = render_aov(&scene, &camera, width, height, aov);
         let path = aov_path(&a.output, aov);
         image.save(&path, Display::LinearClamp).with_context(|| format!("writing the {} AOV", aov.name()))?;
         let detail = match aov {

@@ -705,3 +705,28 @@ fn info_describes_a_mesh_file_and_names_what_was_dropped() {
     let (code, _, err) = isir(&["info", tmp("none.glb").to_str().unwrap()]);
     one_line_error(code, &err, "none.glb");
 }
+
+#[test]
+fn scene_files_render_check_and_report_errors_on_one_line() {
+    let scene = tmp("two.toml");
+    std::fs::write(
+        &scene,
+        "[render]\nwidth = 40\nheight = 30\n[camera]\nposition = [0, 0, -4]\n[materials]\nred = { type = \"lambert\", color = [1, 0, 0] }\n\
+         [[objects]]\ntype = \"sphere\"\nmaterial = \"red\"\n[[lights]]\ntype = \"point\"\nposition = [0, 3, -3]\n",
+    )
+    .unwrap();
+    let png = tmp("two.png");
+    let (code, out, err) = isir(&["render", scene.to_str().unwrap(), "-o", png.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("40x30"), "the file's size: {out}");
+    let (code, out, err) = isir(&["render", scene.to_str().unwrap(), "-o", png.to_str().unwrap(), "--width", "20"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("20x30"), "the option overrides the file: {out}");
+    let (code, out, _) = isir(&["check", scene.to_str().unwrap()]);
+    assert_eq!(code, 0);
+    assert!(out.contains("objects:    1") && out.contains("lights:     1"), "{out}");
+    std::fs::write(&scene, "[[objects]]\ntype = \"spere\"\n").unwrap();
+    let (code, _, err) = isir(&["check", scene.to_str().unwrap()]);
+    one_line_error(code, &err, "two.toml:2:");
+    assert!(err.contains("did you mean `sphere`?"), "{err}");
+}

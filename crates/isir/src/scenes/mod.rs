@@ -7,6 +7,7 @@
 //! `scene/`: the seam stays free of upward imports.
 
 mod description;
+mod file;
 mod tp1;
 mod tp2;
 mod tp4;
@@ -15,6 +16,7 @@ mod tp6;
 mod tp7;
 
 pub use description::{CameraDesc, MeshSource, ObjectDesc, SceneDescription, ShapeDesc, Transform, MAX_COORDINATE};
+pub use file::{load_scene_file, parse_scene, to_toml, SceneFile};
 
 use crate::error::{Error, Result};
 use crate::geometry::{Plane, Sdf, Shading, Sphere};

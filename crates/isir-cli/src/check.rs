@@ -1,0 +1,36 @@
+//! `isir check FILE.toml`: read a scene file, load its meshes, report what it holds and
+//! what loading had to say, without rendering.
+
+use clap::Args;
+use isir::geometry::Geometry;
+use std::path::PathBuf;
+
+#[derive(Args, Debug)]
+pub struct CheckArgs {
+    /// A scene file (.toml, see docs/scene-format.md).
+    pub scene: PathBuf,
+}
+
+pub fn run(a: CheckArgs) -> anyhow::Result<()> {
+    let file = isir::scenes::load_scene_file(&a.scene)?;
+    let d = &file.description;
+    let scene = d.build(isir::Accel::BvhSah)?;
+    let triangles: usize = scene
+        .objects
+        .iter()
+        .map(|o| match &o.geometry {
+            Geometry::Mesh(m) => m.triangles.len(),
+            Geometry::Instance(i) => i.mesh.triangles.len(),
+            _ => 0,
+        })
+        .sum();
+    println!("{}: ok", a.scene.display());
+    println!("image:      {}x{}, {} spp, {}", file.width.unwrap_or(600), file.height.unwrap_or(400), d.spp, d.integrator.name());
+    println!("objects:    {} ({triangles} triangles in meshes)", scene.objects.len());
+    println!("materials:  {} named", d.materials.len());
+    println!("lights:     {}", d.lights.len());
+    for w in &scene.warnings {
+        println!("warning:    {w}");
+    }
+    Ok(())
+}

@@ -1,0 +1,506 @@
+//! Scene files: TOML (`docs/scene-format.md`) read with serde into a [`SceneDescription`].
+//! Paths of mesh files are relative to the scene file; every key has the course's default.
+//! An error names the file, the line and the column, quotes the line, and for an unknown
+//! key or material name suggests the nearest valid one.
+
+use super::description::{CameraDesc, MeshSource, ObjectDesc, SceneDescription, ShapeDesc, Transform};
+use crate::error::{Error, Result};
+use crate::geometry::{Plane, Shading, Sphere};
+use crate::integrators::{Integrator, DEFAULT_MAX_DEPTH};
+use crate::io::image::Display;
+use crate::io::input::{self, ReadLimits};
+use crate::lights::Light;
+use crate::materials::Material;
+use crate::math::color::GREY;
+use glam::Vec3;
+use serde::Deserialize;
+use std::collections::BTreeMap;
+use std::path::Path;
+use toml::Spanned;
+
+/// A scene file's scene, and the image size it asks for.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SceneFile {
+    /// The scene.
+    pub description: SceneDescription,
+    /// `[render] width`, if given.
+    pub width: Option<u32>,
+    /// `[render] height`, if given.
+    pub height: Option<u32>,
+}
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct File {
+    #[serde(default)]
+    render: RenderSection,
+    #[serde(default)]
+    camera: CameraSection,
+    #[serde(default)]
+    materials: BTreeMap<String, MaterialSpec>,
+    #[serde(default)]
+    objects: Vec<ObjectSpec>,
+    #[serde(default)]
+    lights: Vec<LightSpec>,
+}
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct RenderSection {
+    width: Option<u32>,
+    height: Option<u32>,
+    spp: Option<u32>,
+    integrator: Option<Spanned<String>>,
+    light_samples: Option<u32>,
+    max_depth: Option<u32>,
+    display: Option<Spanned<String>>,
+    background: Option<[f32; 3]>,
+}
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct CameraSection {
+    position: Option<[f32; 3]>,
+    look_at: Option<[f32; 3]>,
+    up: Option<[f32; 3]>,
+    fovy: Option<f32>,
+}
+
+fn white() -> [f32; 3] {
+    [1.0, 1.0, 1.0]
+}
+
+#[derive(Deserialize)]
+#[serde(tag = "type", rename_all = "kebab-case", deny_unknown_fields)]
+enum MaterialSpec {
+    Color {
+        #[serde(default = "white")]
+        color: [f32; 3],
+    },
+    Lambert {
+        #[serde(default = "white")]
+        color: [f32; 3],
+    },
+    Matte {
+        #[serde(default = "white")]
+        color: [f32; 3],
+        #[serde(default)]
+        sigma: f32,
+    },
+    Plastic {
+        #[serde(default = "white")]
+        color: [f32; 3],
+        #[serde(default = "white")]
+        specular: [f32; 3],
+        #[serde(default = "default_shininess")]
+        shininess: f32,
+        #[serde(default)]
+        blinn: bool,
+    },
+    CookTorrance {
+        #[serde(default = "white")]
+        color: [f32; 3],
+        f0: Option<[f32; 3]>,
+        #[serde(default = "default_roughness")]
+        roughness: f32,
+        #[serde(default)]
+        metalness: f32,
+    },
+    Mirror {},
+    Transparent {
+        #[serde(default = "default_ior")]
+        ior: f32,
+    },
+}
+
+fn default_shininess() -> f32 {
+    32.0
+}
+fn default_roughness() -> f32 {
+    0.5
+}
+fn default_ior() -> f32 {
+    1.3
+}
+
+#[derive(Deserialize)]
+#[serde(tag = "type", rename_all = "kebab-case", deny_unknown_fields)]
+enum ObjectSpec {
+    Plane {
+        name: Option<String>,
+        #[serde(default)]
+        point: [f32; 3],
+        #[serde(default = "up")]
+        normal: [f32; 3],
+        material: Option<String>,
+    },
+    Sphere {
+        name: Option<String>,
+        #[serde(default)]
+        center: [f32; 3],
+        #[serde(default = "one")]
+        radius: f32,
+        material: Option<String>,
+    },
+    Mesh {
+        name: Option<String>,
+        file: Option<String>,
+        model: Option<String>,
+        #[serde(default)]
+        flat: bool,
+        material: Option<String>,
+        transform: Option<TransformSpec>,
+    },
+}
+
+fn up() -> [f32; 3] {
+    [0.0, 1.0, 0.0]
+}
+fn one() -> f32 {
+    1.0
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct TransformSpec {
+    #[serde(default)]
+    translate: [f32; 3],
+    #[serde(default)]
+    rotate: [f32; 3],
+    #[serde(default = "one")]
+    scale: f32,
+}
+
+#[derive(Deserialize)]
+#[serde(tag = "type", rename_all = "kebab-case", deny_unknown_fields)]
+enum LightSpec {
+    Point {
+        position: [f32; 3],
+        #[serde(default = "white")]
+        color: [f32; 3],
+        #[serde(default = "default_power")]
+        power: f32,
+    },
+    Quad {
+        corner: [f32; 3],
+        u: [f32; 3],
+        v: [f32; 3],
+        #[serde(default = "white")]
+        color: [f32; 3],
+        #[serde(default = "default_power")]
+        power: f32,
+    },
+}
+
+fn default_power() -> f32 {
+    100.0
+}
+
+/// The levenshtein distance of two short words.
+fn distance(a: &str, b: &str) -> usize {
+    let b: Vec<char> = b.chars().collect();
+    let mut row: Vec<usize> = (0..=b.len()).collect();
+    for (i, ca) in a.chars().enumerate() {
+        let mut prev = row[0];
+        row[0] = i + 1;
+        for j in 0..b.len() {
+            let cur = row[j + 1];
+            row[j + 1] = (prev + usize::from(ca != b[j])).min(row[j] + 1).min(cur + 1);
+            prev = cur;
+        }
+    }
+    row[b.len()]
+}
+
+/// The nearest of `choices` to `word`, if near enough to be a typo.
+fn nearest<'a>(word: &str, choices: impl IntoIterator<Item = &'a str>) -> Option<&'a str> {
+    choices.into_iter().map(|c| (distance(word, c), c)).filter(|&(d, c)| d <= (c.len().max(2) / 2).max(1)).min().map(|(_, c)| c)
+}
+
+/// Read and parse the scene file `path` (within the input limit).
+///
+/// # Errors
+/// The file cannot be read, or is not a valid scene (see [`parse_scene`]).
+pub fn load_scene_file(path: &Path) -> Result<SceneFile> {
+    let limits = ReadLimits::from_env().map_err(|message| Error::Input { path: path.to_path_buf(), message })?;
+    let bytes = input::read_file(path, &limits)?;
+    let text =
+        std::str::from_utf8(&bytes).map_err(|e| Error::Input { path: path.to_path_buf(), message: format!("not UTF-8 text ({e})") })?;
+    parse_scene(path, text)
+}
+
+/// Parse the text of a scene file; `path` names it in errors and mesh files are looked up
+/// beside it.
+///
+/// # Errors
+/// Not TOML, an unknown key or value, a wrong type, a material name not defined: the
+/// error names the file, line and column, quotes the line and suggests the nearest key.
+pub fn parse_scene(path: &Path, text: &str) -> Result<SceneFile> {
+    let at = |span: Option<std::ops::Range<usize>>, message: String| {
+        let (line, col, quoted) = match span {
+            Some(s) => {
+                let start = s.start.min(text.len());
+                let line_start = text[..start].rfind('\n').map_or(0, |i| i + 1);
+                let line_end = text[start..].find('\n').map_or(text.len(), |i| start + i);
+                let line = text[..start].matches('\n').count() + 1;
+                let col = text[line_start..start].chars().count() + 1;
+                let quoted: String = text[line_start..line_end].trim_end().chars().take(100).collect();
+                (Some(line), col, format!(" — `{quoted}`"))
+            }
+            None => (None, 0, String::new()),
+        };
+        let position = line.map_or(String::new(), |l| format!(":{l}:{col}"));
+        Error::Scene(format!("{}{position}: {message}{quoted}", path.display()))
+    };
+    let file: File = toml::from_str(text).map_err(|e| {
+        let mut message = e.message().trim().replace('\n', " ");
+        let mut span = e.span();
+        // serde: "unknown field `colour`, expected one of `type`, `color`": suggest, and
+        // point at the key itself (inside a tagged table serde only knows the table).
+        if let Some(rest) = message.strip_prefix("unknown field `") {
+            if let Some((word, expected)) = rest.split_once('`') {
+                let choices: Vec<&str> = expected.split('`').skip(1).step_by(2).collect();
+                let hint = nearest(word, choices).map(|n| format!(" (did you mean `{n}`?)"));
+                let from = span.as_ref().map_or(0, |s| s.start.min(text.len()));
+                let mut offset = from;
+                for line in text[from..].split_inclusive('\n') {
+                    let key = line.trim_start();
+                    if key.starts_with(word) && key[word.len()..].trim_start().starts_with('=') {
+                        let at = offset + (line.len() - key.len());
+                        span = Some(at..at + word.len());
+                        break;
+                    }
+                    offset += line.len();
+                }
+                if let Some(h) = hint {
+                    message.push_str(&h);
+                }
+            }
+        }
+        if let Some(rest) = message.strip_prefix("unknown variant `") {
+            if let Some((word, expected)) = rest.split_once('`') {
+                let choices: Vec<&str> = expected.split('`').skip(1).step_by(2).collect();
+                if let Some(n) = nearest(word, choices) {
+                    message.push_str(&format!(" (did you mean `{n}`?)"));
+                }
+            }
+        }
+        at(span, message)
+    })?;
+    let dir = path.parent().unwrap_or(Path::new(""));
+    let c = |a: [f32; 3]| Vec3::from(a);
+    let name = path.file_stem().map_or_else(|| "scene".to_string(), |s| s.to_string_lossy().into_owned());
+    let cam = &file.camera;
+    let mut camera = CameraDesc::new(c(cam.position.unwrap_or([0.0, 0.0, 0.0])), c(cam.look_at.unwrap_or([0.0, 0.0, 1.0])));
+    if let Some(u) = cam.up {
+        camera.up = c(u);
+    }
+    if let Some(f) = cam.fovy {
+        camera.fovy = f;
+    }
+    let mut d = SceneDescription::new(&name, camera);
+    d.summary = format!("scene file {}", path.display());
+    let r = &file.render;
+    d.spp = r.spp.unwrap_or(1).max(1);
+    d.background = r.background.map_or(GREY, c);
+    if let Some(display) = &r.display {
+        d.display = match display.get_ref().as_str() {
+            "srgb" => Display::Srgb,
+            "linear-clamp" => Display::LinearClamp,
+            other => {
+                let hint = nearest(other, ["srgb", "linear-clamp"]).map_or(String::new(), |n| format!(" (did you mean `{n}`?)"));
+                return Err(at(Some(display.span()), format!("display `{other}`: expected `srgb` or `linear-clamp`{hint}")));
+            }
+        };
+    }
+    let light_samples = r.light_samples.unwrap_or(1).max(1);
+    let max_depth = r.max_depth.unwrap_or(DEFAULT_MAX_DEPTH);
+    d.integrator = match r.integrator.as_ref().map(|s| (s.get_ref().as_str(), s.span())) {
+        None | Some(("direct", _)) => Integrator::DirectLighting { light_samples },
+        Some(("ray-cast", _)) => Integrator::RayCast,
+        Some(("whitted", _)) => Integrator::Whitted { light_samples, max_depth },
+        Some(("path", _)) => Integrator::Path { light_samples, max_depth },
+        Some((other, span)) => {
+            let names = ["ray-cast", "direct", "whitted", "path"];
+            let hint = nearest(other, names).map_or(String::new(), |n| format!(" (did you mean `{n}`?)"));
+            return Err(at(Some(span), format!("integrator `{other}`: expected one of ray-cast, direct, whitted, path{hint}")));
+        }
+    };
+    for (n, m) in &file.materials {
+        let material = match *m {
+            MaterialSpec::Color { color } => Material::Color(c(color)),
+            MaterialSpec::Lambert { color } => Material::Lambert(c(color)),
+            MaterialSpec::Matte { color, sigma } => Material::Matte { kd: c(color), sigma },
+            MaterialSpec::Plastic { color, specular, shininess, blinn } => {
+                Material::Plastic { kd: c(color), ks: c(specular), shininess, blinn }
+            }
+            MaterialSpec::CookTorrance { color, f0, roughness, metalness } => {
+                Material::CookTorrance { kd: c(color), f0: f0.map_or(c(color), c), roughness, metalness }
+            }
+            MaterialSpec::Mirror {} => Material::Mirror,
+            MaterialSpec::Transparent { ior } => Material::Transparent { ior },
+        };
+        d.materials.push((n.clone(), material));
+    }
+    // Where `key = "value"` is written (serde keeps no spans inside tagged tables).
+    let span_of = |key: &str, value: &str| {
+        let quoted = format!("\"{value}\"");
+        let mut offset = 0;
+        for line in text.split_inclusive('\n') {
+            if line.trim_start().starts_with(key) || line.contains(&format!("{key} =")) || line.contains(&format!("{key}=")) {
+                if let Some(i) = line.find(&quoted) {
+                    return Some(offset + i..offset + i + quoted.len());
+                }
+            }
+            offset += line.len();
+        }
+        None
+    };
+    let material_ref = |m: &Option<String>| -> Result<Option<String>> {
+        let Some(m) = m else { return Ok(None) };
+        if file.materials.contains_key(m) {
+            return Ok(Some(m.clone()));
+        }
+        let hint = nearest(m, file.materials.keys().map(String::as_str)).map_or(String::new(), |n| format!(" (did you mean `{n}`?)"));
+        Err(at(span_of("material", m), format!("material `{m}` is not defined in [materials]{hint}")))
+    };
+    for (i, o) in file.objects.iter().enumerate() {
+        let (name, shape, material) = match o {
+            ObjectSpec::Plane { name, point, normal, material } => {
+                (name.clone(), ShapeDesc::Plane(Plane::new(c(*point), c(*normal))), material_ref(material)?)
+            }
+            ObjectSpec::Sphere { name, center, radius, material } => {
+                (name.clone(), ShapeDesc::Sphere(Sphere::new(c(*center), *radius)), material_ref(material)?)
+            }
+            ObjectSpec::Mesh { name, file: mesh_file, model, flat, material, transform } => {
+                let source = match (mesh_file, model) {
+                    (Some(f), None) => MeshSource::File(dir.join(f)),
+                    (None, Some(m)) => {
+                        let models = super::builtin_models();
+                        match models.iter().find(|&&b| b == m) {
+                            Some(&b) => MeshSource::Builtin(b),
+                            None => {
+                                let hint = nearest(m, models.iter().copied()).map_or(String::new(), |n| format!(" (did you mean `{n}`?)"));
+                                return Err(at(span_of("model", m), format!("no built-in model `{m}` ({}){hint}", models.join(", "))));
+                            }
+                        }
+                    }
+                    _ => return Err(Error::Scene(format!("{}: object {}: a mesh needs either `file` or `model`", path.display(), i + 1))),
+                };
+                let shading = if *flat { Shading::Flat } else { Shading::Smooth };
+                let shape = match transform {
+                    None => ShapeDesc::Mesh { source, shading },
+                    Some(t) => ShapeDesc::MeshInstance {
+                        source,
+                        shading,
+                        transform: Transform { translate: c(t.translate), rotate: c(t.rotate), scale: t.scale },
+                    },
+                };
+                (name.clone(), shape, material_ref(material)?)
+            }
+        };
+        d.objects.push(ObjectDesc { name: name.unwrap_or_else(|| format!("object{}", i + 1)), shape, material });
+    }
+    for l in &file.lights {
+        d.lights.push(match *l {
+            LightSpec::Point { position, color, power } => Light::Point { position: c(position), color: c(color), power },
+            LightSpec::Quad { corner, u, v, color, power } => Light::Quad { corner: c(corner), u: c(u), v: c(v), color: c(color), power },
+        });
+    }
+    Ok(SceneFile { description: d, width: r.width, height: r.height })
+}
+
+/// The scene file of a description (what [`parse_scene`] reads back to the same scene),
+/// for `size` = `(width, height)`; `None` when the scene holds what files cannot say yet
+/// (implicit surfaces, mesh files given by path: built-in models only).
+#[must_use]
+pub fn to_toml(d: &SceneDescription, size: (u32, u32)) -> Option<String> {
+    // Shortest round-trip form of each float, in TOML syntax.
+    let f = |x: f32| {
+        let s = format!("{x:?}");
+        s.strip_suffix(".0").map_or(s.clone(), str::to_string)
+    };
+    let v = |a: Vec3| format!("[{}, {}, {}]", f(a.x), f(a.y), f(a.z));
+    let mut out = format!("# {}\n# {}\n\n[render]\n", d.name, d.summary);
+    out += &format!("width = {}\nheight = {}\nspp = {}\n", size.0, size.1, d.spp);
+    let (integrator, ls, depth) = match d.integrator {
+        Integrator::RayCast => ("ray-cast", None, None),
+        Integrator::DirectLighting { light_samples } => ("direct", Some(light_samples), None),
+        Integrator::Whitted { light_samples, max_depth } => ("whitted", Some(light_samples), Some(max_depth)),
+        Integrator::Path { light_samples, max_depth } => ("path", Some(light_samples), Some(max_depth)),
+    };
+    out += &format!("integrator = \"{integrator}\"\n");
+    if let Some(n) = ls {
+        out += &format!("light_samples = {n}\n");
+    }
+    if let Some(n) = depth {
+        out += &format!("max_depth = {n}\n");
+    }
+    out += &format!(
+        "display = \"{}\"\nbackground = {}\n\n",
+        if d.display == Display::Srgb { "srgb" } else { "linear-clamp" },
+        v(d.background)
+    );
+    let c = &d.camera;
+    out += &format!(
+        "[camera]\nposition = {}\nlook_at = {}\nup = {}\nfovy = {}\n\n[materials]\n",
+        v(c.position),
+        v(c.look_at),
+        v(c.up),
+        f(c.fovy)
+    );
+    for (n, m) in &d.materials {
+        let spec = match m {
+            Material::Color(k) => format!("type = \"color\", color = {}", v(*k)),
+            Material::Lambert(k) => format!("type = \"lambert\", color = {}", v(*k)),
+            Material::Matte { kd, sigma } => format!("type = \"matte\", color = {}, sigma = {}", v(*kd), f(*sigma)),
+            Material::Plastic { kd, ks, shininess, blinn } => {
+                format!("type = \"plastic\", color = {}, specular = {}, shininess = {}, blinn = {blinn}", v(*kd), v(*ks), f(*shininess))
+            }
+            Material::CookTorrance { kd, f0, roughness, metalness } => format!(
+                "type = \"cook-torrance\", color = {}, f0 = {}, roughness = {}, metalness = {}",
+                v(*kd),
+                v(*f0),
+                f(*roughness),
+                f(*metalness)
+            ),
+            Material::Mirror => "type = \"mirror\"".to_string(),
+            Material::Transparent { ior } => format!("type = \"transparent\", ior = {}", f(*ior)),
+            Material::Textured { .. } => return None,
+        };
+        out += &format!("{n} = {{ {spec} }}\n");
+    }
+    for o in &d.objects {
+        out += &format!("\n[[objects]]\nname = \"{}\"\n", o.name);
+        match &o.shape {
+            ShapeDesc::Plane(p) => out += &format!("type = \"plane\"\npoint = {}\nnormal = {}\n", v(p.point), v(p.normal)),
+            ShapeDesc::Sphere(s) => out += &format!("type = \"sphere\"\ncenter = {}\nradius = {}\n", v(s.center), f(s.radius)),
+            ShapeDesc::Mesh { source: MeshSource::Builtin(m), shading } => {
+                out += &format!("type = \"mesh\"\nmodel = \"{m}\"\n");
+                if *shading == Shading::Flat {
+                    out += "flat = true\n";
+                }
+            }
+            _ => return None,
+        }
+        if let Some(m) = &o.material {
+            out += &format!("material = \"{m}\"\n");
+        }
+    }
+    for l in &d.lights {
+        out += &match *l {
+            Light::Point { position, color, power } => {
+                format!("\n[[lights]]\ntype = \"point\"\nposition = {}\ncolor = {}\npower = {}\n", v(position), v(color), f(power))
+            }
+            Light::Quad { corner, u, v: w, color, power } => format!(
+                "\n[[lights]]\ntype = \"quad\"\ncorner = {}\nu = {}\nv = {}\ncolor = {}\npower = {}\n",
+                v(corner),
+                v(u),
+                v(w),
+                v(color),
+                f(power)
+            ),
+        };
+    }
+    Some(out)
+}
