@@ -5,7 +5,7 @@
 
 use super::description::{CameraDesc, MeshSource, ObjectDesc, SceneDescription, ShapeDesc, Transform};
 use crate::error::{Error, Result};
-use crate::geometry::{Plane, Shading, Sphere};
+use crate::geometry::{Plane, Sdf, Shading, Sphere};
 use crate::integrators::{Integrator, DEFAULT_MAX_DEPTH};
 use crate::io::image::Display;
 use crate::io::input::{self, ReadLimits};
@@ -142,6 +142,11 @@ enum ObjectSpec {
         radius: f32,
         material: Option<String>,
     },
+    Implicit {
+        name: Option<String>,
+        sdf: SdfSpec,
+        material: Option<String>,
+    },
     Mesh {
         name: Option<String>,
         file: Option<String>,
@@ -158,6 +163,120 @@ fn up() -> [f32; 3] {
 }
 fn one() -> f32 {
     1.0
+}
+
+/// A signed distance function as an inline table tree (`docs/scene-format.md`).
+#[derive(Deserialize)]
+#[serde(tag = "sdf", rename_all = "kebab-case", deny_unknown_fields)]
+enum SdfSpec {
+    Sphere {
+        radius: f32,
+    },
+    Torus {
+        major: f32,
+        minor: f32,
+    },
+    Box {
+        half: [f32; 3],
+    },
+    RoundedBox {
+        half: [f32; 3],
+        radius: f32,
+    },
+    Capsule {
+        a: [f32; 3],
+        b: [f32; 3],
+        radius: f32,
+    },
+    HalfSpace {
+        normal: [f32; 3],
+        offset: f32,
+    },
+    Union {
+        a: Box<SdfSpec>,
+        b: Box<SdfSpec>,
+    },
+    Intersection {
+        a: Box<SdfSpec>,
+        b: Box<SdfSpec>,
+    },
+    Subtraction {
+        a: Box<SdfSpec>,
+        b: Box<SdfSpec>,
+    },
+    SmoothUnion {
+        a: Box<SdfSpec>,
+        b: Box<SdfSpec>,
+        k: f32,
+    },
+    Transform {
+        of: Box<SdfSpec>,
+        #[serde(default)]
+        translate: [f32; 3],
+        /// A unit quaternion `[x, y, z, w]` (exact), or
+        rotation: Option<[f32; 4]>,
+        /// angles in degrees about x, then y, then z.
+        rotate: Option<[f32; 3]>,
+        #[serde(default = "one")]
+        scale: f32,
+    },
+}
+
+impl SdfSpec {
+    fn to_sdf(&self) -> Sdf {
+        let v = Vec3::from;
+        let b = |s: &SdfSpec| Box::new(s.to_sdf());
+        match self {
+            SdfSpec::Sphere { radius } => Sdf::Sphere { radius: *radius },
+            SdfSpec::Torus { major, minor } => Sdf::Torus { major: *major, minor: *minor },
+            SdfSpec::Box { half } => Sdf::Box { half: v(*half) },
+            SdfSpec::RoundedBox { half, radius } => Sdf::RoundedBox { half: v(*half), radius: *radius },
+            SdfSpec::Capsule { a, b: bb, radius } => Sdf::Capsule { a: v(*a), b: v(*bb), radius: *radius },
+            SdfSpec::HalfSpace { normal, offset } => Sdf::Plane { normal: v(*normal), offset: *offset },
+            SdfSpec::Union { a, b: bb } => Sdf::Union(b(a), b(bb)),
+            SdfSpec::Intersection { a, b: bb } => Sdf::Intersection(b(a), b(bb)),
+            SdfSpec::Subtraction { a, b: bb } => Sdf::Subtraction(b(a), b(bb)),
+            SdfSpec::SmoothUnion { a, b: bb, k } => Sdf::SmoothUnion(b(a), b(bb), *k),
+            SdfSpec::Transform { of, translate, rotation, rotate, scale } => {
+                let rotation = match (rotation, rotate) {
+                    (Some(q), _) => glam::Quat::from_array(*q),
+                    (None, Some(r)) => {
+                        let r = v(*r) * (std::f32::consts::PI / 180.0);
+                        glam::Quat::from_rotation_z(r.z) * glam::Quat::from_rotation_y(r.y) * glam::Quat::from_rotation_x(r.x)
+                    }
+                    (None, None) => glam::Quat::IDENTITY,
+                };
+                Sdf::Transform { inner: b(of), translation: v(*translate), rotation, scale: *scale }
+            }
+        }
+    }
+}
+
+/// An SDF tree as the inline table [`SdfSpec`] reads.
+fn sdf_toml(s: &Sdf, f: &dyn Fn(f32) -> String) -> String {
+    let v = |a: Vec3| format!("[{}, {}, {}]", f(a.x), f(a.y), f(a.z));
+    match s {
+        Sdf::Sphere { radius } => format!("{{ sdf = \"sphere\", radius = {} }}", f(*radius)),
+        Sdf::Torus { major, minor } => format!("{{ sdf = \"torus\", major = {}, minor = {} }}", f(*major), f(*minor)),
+        Sdf::Box { half } => format!("{{ sdf = \"box\", half = {} }}", v(*half)),
+        Sdf::RoundedBox { half, radius } => format!("{{ sdf = \"rounded-box\", half = {}, radius = {} }}", v(*half), f(*radius)),
+        Sdf::Capsule { a, b, radius } => format!("{{ sdf = \"capsule\", a = {}, b = {}, radius = {} }}", v(*a), v(*b), f(*radius)),
+        Sdf::Plane { normal, offset } => format!("{{ sdf = \"half-space\", normal = {}, offset = {} }}", v(*normal), f(*offset)),
+        Sdf::Union(a, b) => format!("{{ sdf = \"union\", a = {}, b = {} }}", sdf_toml(a, f), sdf_toml(b, f)),
+        Sdf::Intersection(a, b) => format!("{{ sdf = \"intersection\", a = {}, b = {} }}", sdf_toml(a, f), sdf_toml(b, f)),
+        Sdf::Subtraction(a, b) => format!("{{ sdf = \"subtraction\", a = {}, b = {} }}", sdf_toml(a, f), sdf_toml(b, f)),
+        Sdf::SmoothUnion(a, b, k) => format!("{{ sdf = \"smooth-union\", a = {}, b = {}, k = {} }}", sdf_toml(a, f), sdf_toml(b, f), f(*k)),
+        Sdf::Transform { inner, translation, rotation, scale } => format!(
+            "{{ sdf = \"transform\", of = {}, translate = {}, rotation = [{}, {}, {}, {}], scale = {} }}",
+            sdf_toml(inner, f),
+            v(*translation),
+            f(rotation.x),
+            f(rotation.y),
+            f(rotation.z),
+            f(rotation.w),
+            f(*scale)
+        ),
+    }
 }
 
 #[derive(Deserialize)]
@@ -372,6 +491,7 @@ pub fn parse_scene(path: &Path, text: &str) -> Result<SceneFile> {
             ObjectSpec::Sphere { name, center, radius, material } => {
                 (name.clone(), ShapeDesc::Sphere(Sphere::new(c(*center), *radius)), material_ref(material)?)
             }
+            ObjectSpec::Implicit { name, sdf, material } => (name.clone(), ShapeDesc::Implicit(sdf.to_sdf()), material_ref(material)?),
             ObjectSpec::Mesh { name, file: mesh_file, model, flat, material, transform } => {
                 let source = match (mesh_file, model) {
                     (Some(f), None) => MeshSource::File(dir.join(f)),
@@ -412,12 +532,16 @@ pub fn parse_scene(path: &Path, text: &str) -> Result<SceneFile> {
 
 /// The scene file of a description (what [`parse_scene`] reads back to the same scene),
 /// for `size` = `(width, height)`; `None` when the scene holds what files cannot say yet
-/// (implicit surfaces, mesh files given by path: built-in models only).
+/// (mesh files given by path, textured materials: built-in models only).
 #[must_use]
 pub fn to_toml(d: &SceneDescription, size: (u32, u32)) -> Option<String> {
     // Shortest round-trip form of each float, in TOML syntax.
     let f = |x: f32| {
         let s = format!("{x:?}");
+        // Integers as integers (`2`, not `2.0`), but -0.0 keeps its sign.
+        if x == 0.0 && x.is_sign_negative() {
+            return s;
+        }
         s.strip_suffix(".0").map_or(s.clone(), str::to_string)
     };
     let v = |a: Vec3| format!("[{}, {}, {}]", f(a.x), f(a.y), f(a.z));
@@ -475,6 +599,7 @@ pub fn to_toml(d: &SceneDescription, size: (u32, u32)) -> Option<String> {
         match &o.shape {
             ShapeDesc::Plane(p) => out += &format!("type = \"plane\"\npoint = {}\nnormal = {}\n", v(p.point), v(p.normal)),
             ShapeDesc::Sphere(s) => out += &format!("type = \"sphere\"\ncenter = {}\nradius = {}\n", v(s.center), f(s.radius)),
+            ShapeDesc::Implicit(sdf) => out += &format!("type = \"implicit\"\nsdf = {}\n", sdf_toml(sdf, &f)),
             ShapeDesc::Mesh { source: MeshSource::Builtin(m), shading } => {
                 out += &format!("type = \"mesh\"\nmodel = \"{m}\"\n");
                 if *shading == Shading::Flat {
