@@ -190,3 +190,40 @@ proptest! {
         let _ = parse_gltf(Path::new("m.gltf"), &bytes, |_| Ok(vec![0; 64]));
     }
 }
+
+#[test]
+fn nodes_sharing_a_mesh_become_instances_of_one_mesh() {
+    use isir::geometry::Geometry;
+    use isir::scenes::{CameraDesc, MeshSource, ObjectDesc, SceneDescription, ShapeDesc};
+    let tri = TriangleMesh::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![], vec![[0, 1, 2]]);
+    let bin = buffer(&tri);
+    let nodes: Vec<String> = (0..20).map(|i| format!("{{\"mesh\":0,\"translation\":[{},0,0]}}", 2 * i)).collect();
+    let roots: Vec<String> = (0..20).map(|i| i.to_string()).collect();
+    let text = json(&tri, Some(&data_uri(&bin)), "")
+        .replace("\"scenes\":[{\"nodes\":[0]}]", &format!("\"scenes\":[{{\"nodes\":[{}]}}]", roots.join(",")))
+        .replace("\"nodes\":[{\"mesh\":0}]", &format!("\"nodes\":[{}]", nodes.join(",")));
+    let path = dir().join("shared.gltf");
+    std::fs::write(&path, text).unwrap();
+    // Flattened (isir info, mesh loading): 20 triangles.
+    assert_eq!(load_mesh(&path).unwrap().mesh.triangles.len(), 20);
+    // In a scene: 20 instances of one mesh, under a top-level BVH.
+    let mut d = SceneDescription::new("s", CameraDesc::new(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO));
+    d.objects.push(ObjectDesc {
+        name: "tris".into(),
+        shape: ShapeDesc::Mesh { source: MeshSource::File(path), shading: Default::default() },
+        material: None,
+    });
+    let scene = d.build(isir::Accel::BvhSah).unwrap();
+    assert_eq!(scene.objects.len(), 20);
+    let Geometry::Instance(first) = &scene.objects[0].geometry else { panic!("an instance") };
+    assert_eq!(std::sync::Arc::strong_count(&first.mesh), 20);
+    assert!(scene.top_level.is_some());
+    // Each node's triangle is where its translation puts it, with the file's material.
+    for i in 0..20 {
+        let hit = scene.intersect(&isir::Ray::new(Vec3::new(2.0 * i as f32 + 0.2, 0.2, 1.0), -Vec3::Z), 0.0, f32::INFINITY).expect("hit");
+        let o = &scene.objects[hit.object as usize];
+        let Geometry::Instance(inst) = &o.geometry else { panic!() };
+        assert_eq!(inst.to_world().translation.x, 2.0 * i as f32);
+        assert_eq!(scene.material(&hit).flat_color(), Vec3::new(1.0, 0.85, 0.57));
+    }
+}

@@ -42,6 +42,34 @@ pub fn is_glb(bytes: &[u8]) -> bool {
 /// # Errors
 /// See the module documentation.
 pub fn parse_gltf(path: &Path, bytes: &[u8], load_uri: impl Fn(&str) -> Result<Vec<u8>>) -> Result<LoadedMesh> {
+    let (mut meshes, _) = parse_inner(path, bytes, &load_uri, false)?;
+    Ok(meshes.remove(0))
+}
+
+/// Meshes each in its own space, and placements `(mesh, transform)` of them.
+pub type Instances = (Vec<LoadedMesh>, Vec<(usize, glam::Affine3A)>);
+
+/// The meshes of a glTF file each in its own space, and where its nodes place them
+/// (`(mesh, transform)`), when some mesh is placed more than once: instances, to be
+/// built once each. `None` when every mesh is placed once ([`parse_gltf`] then gives
+/// the same scene as one mesh).
+///
+/// # Errors
+/// As [`parse_gltf`].
+pub fn parse_gltf_instances(path: &Path, bytes: &[u8], load_uri: impl Fn(&str) -> Result<Vec<u8>>) -> Result<Option<Instances>> {
+    let (meshes, placements) = parse_inner(path, bytes, &load_uri, true)?;
+    Ok(placements.map(|p| (meshes, p)))
+}
+
+/// Read the file; with `instances` and a mesh placed twice, one [`LoadedMesh`] per glTF
+/// mesh in its own space and the placements; otherwise one mesh in world space.
+#[allow(clippy::type_complexity)]
+fn parse_inner(
+    path: &Path,
+    bytes: &[u8],
+    load_uri: &dyn Fn(&str) -> Result<Vec<u8>>,
+    instances: bool,
+) -> Result<(Vec<LoadedMesh>, Option<Vec<(usize, glam::Affine3A)>>)> {
     let fail = |message: String| Error::Mesh { path: path.to_path_buf(), line: None, message };
     let gltf = gltf::Gltf::from_slice(bytes).map_err(|e| match e {
         gltf::Error::Deserialize(j) => Error::Mesh { path: path.to_path_buf(), line: Some(j.line()), message: format!("JSON: {j}") },
@@ -112,14 +140,7 @@ pub fn parse_gltf(path: &Path, bytes: &[u8], load_uri: impl Fn(&str) -> Result<V
     }
     // ---- The default scene's nodes, in world space ----
     let scene = doc.default_scene().or_else(|| doc.scenes().next());
-    let mut vertices = Vec::new();
-    let mut normals = Vec::new();
-    let mut uvs = Vec::new();
-    let mut triangles = Vec::new();
-    let mut slots = Vec::new();
-    let (mut all_normals, mut all_uvs) = (true, true);
-    let mut skipped_modes = 0usize;
-    let mut sparse = 0usize;
+    let mut placements: Vec<(gltf::Mesh, Mat4)> = Vec::new();
     let mut seen = vec![false; doc.nodes().len()];
     let mut stack: Vec<(gltf::Node, Mat4)> = scene.map(|s| s.nodes().map(|n| (n, Mat4::IDENTITY)).collect()).unwrap_or_default();
     while let Some((node, parent)) = stack.pop() {
@@ -131,96 +152,122 @@ pub fn parse_gltf(path: &Path, bytes: &[u8], load_uri: impl Fn(&str) -> Result<V
             return Err(fail(format!("node {}: its transform is not finite", node.index())));
         }
         stack.extend(node.children().map(|c| (c, world)));
-        let Some(mesh) = node.mesh() else { continue };
-        let normal_matrix = Mat3::from_mat4(world).inverse().transpose();
-        for prim in mesh.primitives() {
-            if prim.mode() != Mode::Triangles {
-                skipped_modes += 1;
-                continue;
-            }
-            let what = format!("mesh {} primitive {}", mesh.index(), prim.index());
-            let get = |b: gltf::Buffer| buffers.get(b.index()).map(Vec::as_slice);
-            let Some(pos) = prim.get(&gltf::Semantic::Positions) else {
-                return Err(fail(format!("{what} has no POSITION")));
-            };
-            if pos.sparse().is_some() {
-                sparse += 1;
-                continue;
-            }
-            check_accessor(&pos, &buffers, &[DataType::F32], Dimensions::Vec3).map_err(|m| fail(format!("{what} POSITION: {m}")))?;
-            let reader = prim.reader(get);
-            let base = vertices.len() as u64;
-            let count = pos.count() as u64;
-            if base + count > u64::from(u32::MAX) {
-                return Err(fail(format!("{what}: more than 2^32 vertices in all")));
-            }
-            vertices.extend(reader.read_positions().into_iter().flatten().map(|p| world.transform_point3(Vec3::from(p))));
-            match prim.get(&gltf::Semantic::Normals) {
-                Some(n)
-                    if n.sparse().is_none()
-                        && check_accessor(&n, &buffers, &[DataType::F32], Dimensions::Vec3).is_ok()
-                        && n.count() == pos.count() =>
-                {
-                    normals
-                        .extend(reader.read_normals().into_iter().flatten().map(|n| (normal_matrix * Vec3::from(n)).normalize_or_zero()));
-                }
-                _ => all_normals = false,
-            }
-            match prim.get(&gltf::Semantic::TexCoords(0)) {
-                Some(t)
-                    if t.sparse().is_none()
-                        && check_accessor(&t, &buffers, &[DataType::F32], Dimensions::Vec2).is_ok()
-                        && t.count() == pos.count() =>
-                {
-                    // glTF's v points down the image; isir's (OBJ's) up.
-                    uvs.extend(reader.read_tex_coords(0).into_iter().flat_map(|t| t.into_f32()).map(|[u, v]| Vec2::new(u, 1.0 - v)));
-                }
-                _ => all_uvs = false,
-            }
-            let first = triangles.len();
-            match prim.indices() {
-                Some(ind) => {
-                    if ind.sparse().is_some() {
-                        sparse += 1;
-                        continue;
-                    }
-                    check_accessor(&ind, &buffers, &[DataType::U8, DataType::U16, DataType::U32], Dimensions::Scalar)
-                        .map_err(|m| fail(format!("{what} indices: {m}")))?;
-                    let idx: Vec<u32> = reader.read_indices().map(|r| r.into_u32().collect()).unwrap_or_default();
-                    if let Some(&bad) = idx.iter().find(|&&i| u64::from(i) >= count) {
-                        return Err(fail(format!("{what}: index {bad} past its {count} vertices")));
-                    }
-                    triangles.extend(idx.chunks_exact(3).map(|t| [t[0] + base as u32, t[1] + base as u32, t[2] + base as u32]));
-                }
-                None => triangles.extend((0..count / 3).map(|t| {
-                    let i = base as u32 + 3 * t as u32;
-                    [i, i + 1, i + 2]
-                })),
-            }
-            let slot = prim.material().index().map_or(materials.len(), |i| i.min(materials.len())) as u32;
-            slots.extend(std::iter::repeat_n(slot, triangles.len() - first));
+        if let Some(mesh) = node.mesh() {
+            placements.push((mesh, world));
         }
     }
-    if skipped_modes > 0 {
-        warnings.push(format!("{skipped_modes} primitives that are not triangle lists (points, lines, strips, fans) left out"));
+    // Which meshes to build, each from which placements.
+    let mut uses = vec![0usize; doc.meshes().len()];
+    placements.iter().for_each(|(m, _)| uses[m.index()] += 1);
+    let shared = instances && uses.iter().any(|&u| u > 1);
+    let groups: Vec<Vec<(gltf::Mesh, Mat4)>> =
+        if shared { doc.meshes().map(|m| vec![(m, Mat4::IDENTITY)]).collect() } else { vec![placements.clone()] };
+    let instance_list = shared.then(|| placements.iter().map(|(m, w)| (m.index(), glam::Affine3A::from_mat4(*w))).collect::<Vec<_>>());
+    let doc_warnings = warnings;
+    let mut results = Vec::new();
+    for group in groups {
+        let mut warnings = if results.is_empty() { doc_warnings.clone() } else { Vec::new() };
+        let mut vertices = Vec::new();
+        let mut normals = Vec::new();
+        let mut uvs = Vec::new();
+        let mut triangles = Vec::new();
+        let mut slots = Vec::new();
+        let (mut all_normals, mut all_uvs) = (true, true);
+        let mut skipped_modes = 0usize;
+        let mut sparse = 0usize;
+        for (mesh, world) in group {
+            let normal_matrix = Mat3::from_mat4(world).inverse().transpose();
+            for prim in mesh.primitives() {
+                if prim.mode() != Mode::Triangles {
+                    skipped_modes += 1;
+                    continue;
+                }
+                let what = format!("mesh {} primitive {}", mesh.index(), prim.index());
+                let get = |b: gltf::Buffer| buffers.get(b.index()).map(Vec::as_slice);
+                let Some(pos) = prim.get(&gltf::Semantic::Positions) else {
+                    return Err(fail(format!("{what} has no POSITION")));
+                };
+                if pos.sparse().is_some() {
+                    sparse += 1;
+                    continue;
+                }
+                check_accessor(&pos, &buffers, &[DataType::F32], Dimensions::Vec3).map_err(|m| fail(format!("{what} POSITION: {m}")))?;
+                let reader = prim.reader(get);
+                let base = vertices.len() as u64;
+                let count = pos.count() as u64;
+                if base + count > u64::from(u32::MAX) {
+                    return Err(fail(format!("{what}: more than 2^32 vertices in all")));
+                }
+                vertices.extend(reader.read_positions().into_iter().flatten().map(|p| world.transform_point3(Vec3::from(p))));
+                match prim.get(&gltf::Semantic::Normals) {
+                    Some(n)
+                        if n.sparse().is_none()
+                            && check_accessor(&n, &buffers, &[DataType::F32], Dimensions::Vec3).is_ok()
+                            && n.count() == pos.count() =>
+                    {
+                        normals.extend(
+                            reader.read_normals().into_iter().flatten().map(|n| (normal_matrix * Vec3::from(n)).normalize_or_zero()),
+                        );
+                    }
+                    _ => all_normals = false,
+                }
+                match prim.get(&gltf::Semantic::TexCoords(0)) {
+                    Some(t)
+                        if t.sparse().is_none()
+                            && check_accessor(&t, &buffers, &[DataType::F32], Dimensions::Vec2).is_ok()
+                            && t.count() == pos.count() =>
+                    {
+                        // glTF's v points down the image; isir's (OBJ's) up.
+                        uvs.extend(reader.read_tex_coords(0).into_iter().flat_map(|t| t.into_f32()).map(|[u, v]| Vec2::new(u, 1.0 - v)));
+                    }
+                    _ => all_uvs = false,
+                }
+                let first = triangles.len();
+                match prim.indices() {
+                    Some(ind) => {
+                        if ind.sparse().is_some() {
+                            sparse += 1;
+                            continue;
+                        }
+                        check_accessor(&ind, &buffers, &[DataType::U8, DataType::U16, DataType::U32], Dimensions::Scalar)
+                            .map_err(|m| fail(format!("{what} indices: {m}")))?;
+                        let idx: Vec<u32> = reader.read_indices().map(|r| r.into_u32().collect()).unwrap_or_default();
+                        if let Some(&bad) = idx.iter().find(|&&i| u64::from(i) >= count) {
+                            return Err(fail(format!("{what}: index {bad} past its {count} vertices")));
+                        }
+                        triangles.extend(idx.chunks_exact(3).map(|t| [t[0] + base as u32, t[1] + base as u32, t[2] + base as u32]));
+                    }
+                    None => triangles.extend((0..count / 3).map(|t| {
+                        let i = base as u32 + 3 * t as u32;
+                        [i, i + 1, i + 2]
+                    })),
+                }
+                let slot = prim.material().index().map_or(materials.len(), |i| i.min(materials.len())) as u32;
+                slots.extend(std::iter::repeat_n(slot, triangles.len() - first));
+            }
+        }
+        if skipped_modes > 0 {
+            warnings.push(format!("{skipped_modes} primitives that are not triangle lists (points, lines, strips, fans) left out"));
+        }
+        if sparse > 0 {
+            warnings.push(format!("{sparse} primitives with sparse accessors left out (not read yet)"));
+        }
+        let mut mesh = TriangleMesh::new(vertices, if all_normals { normals } else { Vec::new() }, triangles);
+        mesh.material_slots = slots;
+        if all_uvs && !uvs.is_empty() {
+            mesh.uvs = uvs;
+        }
+        let stats = mesh.stats();
+        if stats.triangles == 0 {
+            warnings.push("no triangles".into());
+        }
+        if stats.degenerate > 0 {
+            warnings.push(format!("{} degenerate triangles (zero area or non-finite vertices) are never hit", stats.degenerate));
+        }
+        let format = if is_glb(bytes) { "glTF 2.0 (binary .glb)" } else { "glTF 2.0" }.into();
+        results.push(LoadedMesh { mesh, materials: materials.clone(), warnings, format });
     }
-    if sparse > 0 {
-        warnings.push(format!("{sparse} primitives with sparse accessors left out (not read yet)"));
-    }
-    let mut mesh = TriangleMesh::new(vertices, if all_normals { normals } else { Vec::new() }, triangles);
-    mesh.material_slots = slots;
-    if all_uvs && !uvs.is_empty() {
-        mesh.uvs = uvs;
-    }
-    let stats = mesh.stats();
-    if stats.triangles == 0 {
-        warnings.push("no triangles".into());
-    }
-    if stats.degenerate > 0 {
-        warnings.push(format!("{} degenerate triangles (zero area or non-finite vertices) are never hit", stats.degenerate));
-    }
-    let format = if is_glb(bytes) { "glTF 2.0 (binary .glb)" } else { "glTF 2.0" }.into();
-    Ok(LoadedMesh { mesh, materials, warnings, format })
+    Ok((results, instance_list))
 }
 
 /// Check that `a` is of one of `types` with `dims`, not normalized, and lies inside its

@@ -47,6 +47,37 @@ pub fn load_mesh_with(path: &Path, limits: &ReadLimits) -> Result<LoadedMesh> {
     obj::parse_obj_beside(path, &bytes, limits)
 }
 
+/// A mesh file as the scene builds it: one mesh, or (a glTF file whose nodes place a mesh
+/// more than once) each mesh in its own space with where the nodes place them.
+#[derive(Clone, Debug)]
+pub enum MeshFile {
+    /// One mesh in world space.
+    One(Box<LoadedMesh>),
+    /// Meshes and their placements `(mesh, transform)`: instances.
+    Instances(Vec<LoadedMesh>, Vec<(usize, glam::Affine3A)>),
+}
+
+/// Read a mesh file for a scene: [`load_mesh`], except that a glTF file whose nodes share
+/// a mesh gives its meshes once each and their placements.
+///
+/// # Errors
+/// As [`load_mesh`].
+pub fn load_mesh_file(path: &Path) -> Result<MeshFile> {
+    let limits = obj::env_limits(path)?;
+    let name = path.file_name().map(|n| n.to_string_lossy().to_ascii_lowercase()).unwrap_or_default();
+    let name = name.strip_suffix(".gz").unwrap_or(&name);
+    if name.ends_with(".gltf") || name.ends_with(".glb") {
+        let bytes = input::read_file(path, &limits)?;
+        let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        let load = |uri: &str| input::read_file(&dir.join(uri), &limits);
+        return Ok(match gltf::parse_gltf_instances(path, &bytes, load)? {
+            Some((meshes, placements)) => MeshFile::Instances(meshes, placements),
+            None => MeshFile::One(Box::new(gltf::parse_gltf(path, &bytes, |uri| input::read_file(&dir.join(uri), &limits))?)),
+        });
+    }
+    load_mesh_with(path, &limits).map(|m| MeshFile::One(Box::new(m)))
+}
+
 /// A glTF file's bytes, its external buffers read beside it within `limits`.
 fn load_gltf(path: &Path, bytes: &[u8], limits: &ReadLimits) -> Result<LoadedMesh> {
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();

@@ -329,7 +329,49 @@ impl SceneDescription {
                 }
                 ShapeDesc::Mesh { source, shading } => {
                     let loaded = match source {
-                        MeshSource::File(path) => mesh::load_mesh(path)?,
+                        MeshSource::File(path) => match mesh::load_mesh_file(path)? {
+                            mesh::MeshFile::One(m) => *m,
+                            mesh::MeshFile::Instances(meshes, placements) => {
+                                // glTF nodes sharing a mesh: each mesh built once, each node an instance.
+                                let mut built = Vec::new();
+                                let mut ids: Option<Vec<MaterialId>> = None;
+                                for loaded in meshes {
+                                    warnings.extend(loaded.warnings.iter().map(|w| format!("{}: {w}", desc.name)));
+                                    let mats = match chosen {
+                                        Some(id) => vec![id; loaded.materials.len() + 1],
+                                        None => ids
+                                            .get_or_insert_with(|| {
+                                                let mut v: Vec<MaterialId> =
+                                                    loaded.materials.iter().map(|m| push_file_material(&mut materials, m)).collect();
+                                                v.push(0);
+                                                v
+                                            })
+                                            .clone(),
+                                    };
+                                    let mut m = loaded.mesh;
+                                    m.shading = *shading;
+                                    m.triangle_test = triangle_test;
+                                    m.build_accel(accel);
+                                    m.remove_overlaps();
+                                    built.push((std::sync::Arc::new(m), mats));
+                                }
+                                for (n, (k, affine)) in placements.into_iter().enumerate() {
+                                    let (mesh, mats) = &built[k];
+                                    let instance = Instance::new(mesh.clone(), affine)
+                                        .ok_or_else(|| Error::Scene(format!("{what}: node transform {n} cannot be inverted")))?;
+                                    let b = instance.bounds();
+                                    if !b.is_empty() {
+                                        check_extent(&what, b.min.abs().max(b.max.abs()).max_element())?;
+                                    }
+                                    objects.push(Object {
+                                        name: format!("{}#{n}", desc.name),
+                                        geometry: Geometry::Instance(Box::new(instance)),
+                                        materials: mats.clone(),
+                                    });
+                                }
+                                continue;
+                            }
+                        },
                         MeshSource::Builtin(name) => crate::scenes::load_builtin_model(name)?,
                     };
                     warnings.extend(loaded.warnings.iter().map(|w| format!("{}: {w}", desc.name)));
