@@ -125,3 +125,18 @@ fn the_documented_implicit_object_parses_and_renders() {
     let other = pixels.iter().filter(|c| **c != f.description.background).count();
     assert!(red > 20, "the red shape is seen: {red} red pixels, {other} not background");
 }
+
+#[test]
+fn deep_nesting_is_an_error_not_a_stack_overflow() {
+    // Arrays and inline tables nested 100,000 deep, and an SDF tree 10,000 deep.
+    for (open, close) in [("[", "]"), ("{ a = ", " }")] {
+        let text = format!("[render]\nbackground = {}1{}\n", open.repeat(100_000), close.repeat(100_000));
+        assert!(parse_scene(Path::new("deep.toml"), &text).is_err());
+    }
+    let sdf = format!("{}{{ sdf = \"sphere\", radius = 1 }}{}", "{ sdf = \"transform\", of = ".repeat(10_000), " }".repeat(10_000));
+    let text = format!("[[objects]]\ntype = \"implicit\"\nsdf = {sdf}\n");
+    match parse_scene(Path::new("deep.toml"), &text) {
+        Err(_) => {}
+        Ok(f) => assert!(f.description.build(Accel::BvhSah).is_err(), "a 10,000-deep tree is refused"),
+    }
+}
