@@ -86,7 +86,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Some(Command::Check(a)) => check::run(a),
         Some(Command::Scenes) => {
             for (name, summary) in isir::scenes::list() {
-                println!("{name:<16} {summary}");
+                println!("{name:<24} {summary}");
             }
             Ok(())
         }
