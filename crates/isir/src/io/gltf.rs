@@ -46,30 +46,31 @@ pub fn parse_gltf(path: &Path, bytes: &[u8], load_uri: impl Fn(&str) -> Result<V
     Ok(meshes.remove(0))
 }
 
-/// Meshes each in its own space, and placements `(mesh, transform)` of them.
-pub type Instances = (Vec<LoadedMesh>, Vec<(usize, glam::Affine3A)>);
+/// Where a glTF file's nodes place its meshes: `(mesh, transform)`.
+pub type Placements = Vec<(usize, glam::Affine3A)>;
 
-/// The meshes of a glTF file each in its own space, and where its nodes place them
-/// (`(mesh, transform)`), when some mesh is placed more than once: instances, to be
-/// built once each. `None` when every mesh is placed once ([`parse_gltf`] then gives
-/// the same scene as one mesh).
+/// The meshes of a glTF file, read once for a scene: when some mesh is placed more than
+/// once, each mesh in its own space and the placements (instances, to be built once each);
+/// otherwise the one world-space mesh of [`parse_gltf`] and `None`.
 ///
 /// # Errors
 /// As [`parse_gltf`].
-pub fn parse_gltf_instances(path: &Path, bytes: &[u8], load_uri: impl Fn(&str) -> Result<Vec<u8>>) -> Result<Option<Instances>> {
-    let (meshes, placements) = parse_inner(path, bytes, &load_uri, true)?;
-    Ok(placements.map(|p| (meshes, p)))
+pub fn parse_gltf_instances(
+    path: &Path,
+    bytes: &[u8],
+    load_uri: impl Fn(&str) -> Result<Vec<u8>>,
+) -> Result<(Vec<LoadedMesh>, Option<Placements>)> {
+    parse_inner(path, bytes, &load_uri, true)
 }
 
 /// Read the file; with `instances` and a mesh placed twice, one [`LoadedMesh`] per glTF
 /// mesh in its own space and the placements; otherwise one mesh in world space.
-#[allow(clippy::type_complexity)]
 fn parse_inner(
     path: &Path,
     bytes: &[u8],
     load_uri: &dyn Fn(&str) -> Result<Vec<u8>>,
     instances: bool,
-) -> Result<(Vec<LoadedMesh>, Option<Vec<(usize, glam::Affine3A)>>)> {
+) -> Result<(Vec<LoadedMesh>, Option<Placements>)> {
     let fail = |message: String| Error::Mesh { path: path.to_path_buf(), line: None, message };
     let gltf = gltf::Gltf::from_slice(bytes).map_err(|e| match e {
         gltf::Error::Deserialize(j) => Error::Mesh { path: path.to_path_buf(), line: Some(j.line()), message: format!("JSON: {j}") },

@@ -54,7 +54,7 @@ pub enum MeshFile {
     /// One mesh in world space.
     One(Box<LoadedMesh>),
     /// Meshes and their placements `(mesh, transform)`: instances.
-    Instances(Vec<LoadedMesh>, Vec<(usize, glam::Affine3A)>),
+    Instances(Vec<LoadedMesh>, gltf::Placements),
 }
 
 /// Read a mesh file for a scene: [`load_mesh`], except that a glTF file whose nodes share
@@ -69,10 +69,11 @@ pub fn load_mesh_file(path: &Path) -> Result<MeshFile> {
     if name.ends_with(".gltf") || name.ends_with(".glb") {
         let bytes = input::read_file(path, &limits)?;
         let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-        let load = |uri: &str| input::read_file(&dir.join(uri), &limits);
-        return Ok(match gltf::parse_gltf_instances(path, &bytes, load)? {
-            Some((meshes, placements)) => MeshFile::Instances(meshes, placements),
-            None => MeshFile::One(Box::new(gltf::parse_gltf(path, &bytes, |uri| input::read_file(&dir.join(uri), &limits))?)),
+        // The file is parsed once, whether its nodes share meshes or not.
+        let (mut meshes, placements) = gltf::parse_gltf_instances(path, &bytes, |uri| input::read_file(&dir.join(uri), &limits))?;
+        return Ok(match placements {
+            Some(placements) => MeshFile::Instances(meshes, placements),
+            None => MeshFile::One(Box::new(meshes.remove(0))),
         });
     }
     load_mesh_with(path, &limits).map(|m| MeshFile::One(Box::new(m)))
