@@ -6,7 +6,7 @@ use crate::accel::triangle::TriangleTest;
 use crate::accel::Accel;
 use crate::camera::Camera;
 use crate::error::{Error, Result};
-use crate::geometry::{Geometry, Implicit, Instance, Plane, Sdf, Shading, Sphere};
+use crate::geometry::{Geometry, Implicit, Instance, Plane, Sdf, Shading, Sphere, TriangleMesh};
 use crate::integrators::Integrator;
 use crate::io::image::Display;
 use crate::io::mesh;
@@ -270,7 +270,7 @@ impl SceneDescription {
         let mut warnings = Vec::new();
         // Meshes placed by several instances: loaded and built once (the mesh, the file's
         // materials, their ids once pushed).
-        type Shared = (std::sync::Arc<crate::geometry::TriangleMesh>, Vec<FileMaterial>, Option<Vec<MaterialId>>);
+        type Shared = (std::sync::Arc<TriangleMesh>, Vec<FileMaterial>, Option<Vec<MaterialId>>);
         let mut shared: std::collections::HashMap<String, Shared> = std::collections::HashMap::new();
         for desc in &self.objects {
             let chosen = lookup(&desc.material)?;
@@ -310,14 +310,7 @@ impl SceneDescription {
                     let entry = shared.get_mut(&key).expect("inserted above");
                     let mats = match chosen {
                         Some(id) => vec![id; entry.1.len() + 1],
-                        None => entry
-                            .2
-                            .get_or_insert_with(|| {
-                                let mut ids: Vec<MaterialId> = entry.1.iter().map(|m| push_file_material(&mut materials, m)).collect();
-                                ids.push(0); // faces without a material
-                                ids
-                            })
-                            .clone(),
+                        None => entry.2.get_or_insert_with(|| file_material_ids(&mut materials, &entry.1)).clone(),
                     };
                     let instance = Instance::new(entry.0.clone(), transform.to_affine())
                         .ok_or_else(|| Error::Scene(format!("{what}: the transform must be finite with a non-zero scale")))?;
@@ -339,20 +332,10 @@ impl SceneDescription {
                                     warnings.extend(loaded.warnings.iter().map(|w| format!("{}: {w}", desc.name)));
                                     let mats = match chosen {
                                         Some(id) => vec![id; loaded.materials.len() + 1],
-                                        None => ids
-                                            .get_or_insert_with(|| {
-                                                let mut v: Vec<MaterialId> =
-                                                    loaded.materials.iter().map(|m| push_file_material(&mut materials, m)).collect();
-                                                v.push(0);
-                                                v
-                                            })
-                                            .clone(),
+                                        None => ids.get_or_insert_with(|| file_material_ids(&mut materials, &loaded.materials)).clone(),
                                     };
                                     let mut m = loaded.mesh;
-                                    m.shading = *shading;
-                                    m.triangle_test = triangle_test;
-                                    m.build_accel(accel);
-                                    m.remove_overlaps();
+                                    finish_mesh(&mut m, *shading, triangle_test, accel);
                                     built.push((std::sync::Arc::new(m), mats));
                                 }
                                 for (n, (k, affine)) in placements.into_iter().enumerate() {
@@ -380,10 +363,7 @@ impl SceneDescription {
                     if !b.is_empty() {
                         check_extent(&what, b.min.abs().max(b.max.abs()).max_element())?;
                     }
-                    mesh.shading = *shading;
-                    mesh.triangle_test = triangle_test;
-                    mesh.build_accel(accel);
-                    let overlap = mesh.remove_overlaps();
+                    let overlap = finish_mesh(&mut mesh, *shading, triangle_test, accel);
                     // Known facts about the shipped models are not warnings.
                     if matches!(source, MeshSource::File(_)) {
                         let stats = mesh.stats();
@@ -403,11 +383,7 @@ impl SceneDescription {
                     }
                     let mats = match chosen {
                         Some(id) => vec![id; loaded.materials.len() + 1],
-                        None => {
-                            let mut ids: Vec<MaterialId> = loaded.materials.iter().map(|m| push_file_material(&mut materials, m)).collect();
-                            ids.push(0); // faces without a material
-                            ids
-                        }
+                        None => file_material_ids(&mut materials, &loaded.materials),
                     };
                     (Geometry::Mesh(Box::new(mesh)), mats)
                 }
@@ -431,22 +407,36 @@ impl SceneDescription {
         shading: Shading,
         accel: Accel,
         triangle_test: TriangleTest,
-    ) -> Result<(crate::geometry::TriangleMesh, Vec<FileMaterial>, Vec<String>)> {
+    ) -> Result<(TriangleMesh, Vec<FileMaterial>, Vec<String>)> {
         let loaded = match source {
             MeshSource::File(path) => mesh::load_mesh(path)?,
             MeshSource::Builtin(model) => crate::scenes::load_builtin_model(model)?,
         };
         let mut notes: Vec<String> = loaded.warnings.iter().map(|w| format!("{name}: {w}")).collect();
         let mut m = loaded.mesh;
-        m.shading = shading;
-        m.triangle_test = triangle_test;
-        m.build_accel(accel);
-        m.remove_overlaps();
+        finish_mesh(&mut m, shading, triangle_test, accel);
         if matches!(source, MeshSource::File(_)) && m.stats().duplicates > 0 {
             notes.push(format!("{name}: {} duplicate triangles are hit as the first of each", m.stats().duplicates));
         }
         Ok((m, loaded.materials, notes))
     }
+}
+
+/// Give a loaded mesh its shading and triangle test, build its acceleration structure and
+/// leave out its exact duplicate triangles; what the overlap probe still finds.
+fn finish_mesh(m: &mut TriangleMesh, shading: Shading, triangle_test: TriangleTest, accel: Accel) -> Option<(u64, Vec3)> {
+    m.shading = shading;
+    m.triangle_test = triangle_test;
+    m.build_accel(accel);
+    m.remove_overlaps()
+}
+
+/// The material ids of a mesh's slots: one per file material (pushed), then the default
+/// for faces without one.
+fn file_material_ids(materials: &mut Vec<Material>, file: &[FileMaterial]) -> Vec<MaterialId> {
+    let mut ids: Vec<MaterialId> = file.iter().map(|m| push_file_material(materials, m)).collect();
+    ids.push(0); // faces without a material
+    ids
 }
 
 /// The material of a file's material (a texture when it has one), pushed; its id.
