@@ -166,10 +166,11 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
             "--max-depth {d}: must be between 1 and {MAX_DEPTH_LIMIT} (bounces along a path)"
         );
     }
-    with_threads(a.threads, || render_in_pool(&a))?
+    with_threads(a.threads, || render_in_pool(&a, width, height))?
 }
 
-fn render_in_pool(a: &RenderArgs) -> anyhow::Result<()> {
+/// Render at the size `run` settled (the options, else the scene file's, else 600×400).
+fn render_in_pool(a: &RenderArgs, width: u32, height: u32) -> anyhow::Result<()> {
     let name = a.scene.clone().unwrap_or_else(|| isir::scenes::DEFAULT_SCENE.to_string());
     let accel = a.accel;
     let test = if a.watertight { TriangleTest::Watertight } else { TriangleTest::MollerTrumbore };
@@ -198,7 +199,6 @@ fn render_in_pool(a: &RenderArgs) -> anyhow::Result<()> {
     }
     warn_all(&integrator.warnings(&scene));
     let spp = a.spp.unwrap_or(desc.spp);
-    let (width, height) = image_size(a)?;
     let renderer = Renderer::new(width, height).spp(spp).seed(a.seed);
     let camera = desc.camera.build(renderer.aspect());
 
