@@ -1,6 +1,6 @@
 //! The surface interaction: what every integrator and material reads of a hit.
 
-use crate::math::ray::{spawn_ray, spawn_ray_to, Ray};
+use crate::math::ray::{spawn_ray, spawn_ray_to, Ray, ShadowRays};
 use glam::Vec3;
 
 /// Index of a material in its [`crate::Scene`].
@@ -56,5 +56,12 @@ impl Hit {
     #[must_use]
     pub fn spawn_ray_to(&self, target: Vec3) -> Option<(Ray, f32)> {
         spawn_ray_to(self.point, self.point_error, self.geometric_normal, target)
+    }
+
+    /// Shadow rays from the hit to many targets ([`ShadowRays`]): those of
+    /// [`Hit::spawn_ray_to`], with the offset origin computed once per side.
+    #[must_use]
+    pub fn shadow_rays(&self) -> ShadowRays {
+        ShadowRays::new(self.point, self.point_error, self.geometric_normal)
     }
 }

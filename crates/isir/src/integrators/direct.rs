@@ -37,17 +37,19 @@ pub(super) fn direct_lighting(
 ) -> Color {
     let material = scene.material(hit);
     let mut li = Color::ZERO;
+    let mut shadow_rays = hit.shadow_rays();
     for light in &scene.lights {
+        let light_sampler = light.sampler();
         let n = if light.is_surface() { light_samples.max(1) } else { 1 };
         let mut sum = Color::ZERO;
         for _ in 0..n {
-            let ls = light.sample(hit.point, sampler.next_2d());
+            let ls = light_sampler.sample(hit.point, sampler.next_2d());
             let cos = ls.direction.dot(hit.normal).max(0.0);
             if cos == 0.0 || ls.radiance == Color::ZERO {
                 continue;
             }
             // ---- Shadow ray, from outside the hit point's error bound on the light's side ----
-            let Some((shadow, t_max)) = hit.spawn_ray_to(ls.point) else { continue };
+            let Some((shadow, t_max)) = shadow_rays.to(ls.point) else { continue };
             counters.shadow += 1;
             if !scene.occluded(&shadow, 0.0, t_max) {
                 sum += material.shade(ray, hit, &ls) * ls.radiance * cos;

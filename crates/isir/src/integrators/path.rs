@@ -122,11 +122,13 @@ fn next_event(
     counters: &mut RayCounters,
 ) -> Color {
     let mut sum = Color::ZERO;
+    let mut shadow_rays = hit.shadow_rays();
     for light in &scene.lights {
+        let light_sampler = light.sampler();
         let n = if light.is_surface() { n_light } else { 1 };
         let mut acc = Color::ZERO;
         for _ in 0..n {
-            let ls = light.sample(hit.point, sampler.next_2d());
+            let ls = light_sampler.sample(hit.point, sampler.next_2d());
             if ls.radiance == Color::ZERO || ls.pdf.is_nan() || ls.pdf <= 0.0 {
                 continue;
             }
@@ -134,7 +136,7 @@ fn next_event(
             if f == Color::ZERO {
                 continue;
             }
-            let Some((shadow, t_max)) = hit.spawn_ray_to(ls.point) else { continue };
+            let Some((shadow, t_max)) = shadow_rays.to(ls.point) else { continue };
             counters.shadow += 1;
             if scene.occluded(&shadow, 0.0, t_max) {
                 continue;

@@ -76,29 +76,77 @@ impl Light {
     /// Sample the light from point `x`; `xi` in `[0,1)²` picks the point on an area light.
     #[must_use]
     pub fn sample(&self, x: Vec3, xi: Vec2) -> LightSample {
+        self.sampler().sample(x, xi)
+    }
+
+    /// What sampling this light needs that does not depend on the receiver (the quad's
+    /// normal and area), computed once for many samples.
+    #[must_use]
+    pub fn sampler(&self) -> LightSampler {
         match *self {
-            Light::Point { position, color, power } => {
-                let to = position - x;
-                let d = to.length();
-                LightSample { direction: to / d, distance: d, point: position, radiance: color * power / (d * d), pdf: 1.0 }
-            }
+            Light::Point { position, color, power } => LightSampler::Point { position, emitted: color * power },
             Light::Quad { corner, u, v, color, power } => {
-                let y = corner + xi.x * u + xi.y * v;
-                let to = y - x;
-                let d = to.length();
-                let wi = to / d;
                 // A parallelogram: area |u × v| (the course's quads are rectangles, where it
                 // is |u|·|v|).
                 let c = u.cross(v);
                 let area = c.length();
-                let n = c / area;
-                let cos = n.dot(wi);
+                LightSampler::Quad { corner, u, v, normal: c / area, area, emitted: color * power }
+            }
+        }
+    }
+}
+
+/// A light ready to be sampled from many points ([`Light::sampler`]): the same samples as
+/// [`Light::sample`], bit for bit, without recomputing the light's own geometry each time.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum LightSampler {
+    /// A point light: its position and `colour·power`.
+    Point {
+        /// Position.
+        position: Vec3,
+        /// `colour·power`.
+        emitted: Color,
+    },
+    /// A quad light with its unit normal `(u × v)/|u × v|`, area and `colour·power`.
+    Quad {
+        /// One corner.
+        corner: Vec3,
+        /// First edge.
+        u: Vec3,
+        /// Second edge.
+        v: Vec3,
+        /// Unit normal.
+        normal: Vec3,
+        /// Area.
+        area: f32,
+        /// `colour·power`.
+        emitted: Color,
+    },
+}
+
+impl LightSampler {
+    /// Sample the light from point `x`; `xi` in `[0,1)²` picks the point on an area light.
+    #[inline]
+    #[must_use]
+    pub fn sample(&self, x: Vec3, xi: Vec2) -> LightSample {
+        match *self {
+            LightSampler::Point { position, emitted } => {
+                let to = position - x;
+                let d = to.length();
+                LightSample { direction: to / d, distance: d, point: position, radiance: emitted / (d * d), pdf: 1.0 }
+            }
+            LightSampler::Quad { corner, u, v, normal, area, emitted } => {
+                let y = corner + xi.x * u + xi.y * v;
+                let to = y - x;
+                let d = to.length();
+                let wi = to / d;
+                let cos = normal.dot(wi);
                 if cos.is_nan() || cos <= 0.0 {
                     // The back of the light: nothing.
                     return LightSample { direction: wi, distance: d, point: y, radiance: Color::ZERO, pdf: 0.0 };
                 }
                 let pdf = d * d / (area * cos);
-                LightSample { direction: wi, distance: d, point: y, radiance: color * power / pdf, pdf }
+                LightSample { direction: wi, distance: d, point: y, radiance: emitted / pdf, pdf }
             }
         }
     }

@@ -101,6 +101,12 @@ pub fn offset_ray_origin(p: Vec3, p_error: Vec3, n: Vec3, w: Vec3) -> Vec3 {
     // 0 (a point computed exactly, e.g. on a plane through the origin), so the origin
     // always leaves the surface.
     let side = if w.dot(n) < 0.0 { -n } else { n };
+    offset_along(p, d, side)
+}
+
+/// `p` moved by `d` along `side`, each moved coordinate rounded one float further.
+#[inline]
+fn offset_along(p: Vec3, d: f32, side: Vec3) -> Vec3 {
     let po = p + d * side;
     let away = |po: f32, o: f32| {
         if o > 0.0 {
@@ -131,6 +137,37 @@ pub fn spawn_ray_to(p: Vec3, p_error: Vec3, ng: Vec3, target: Vec3) -> Option<(R
     let to = target - origin;
     let dist = to.length();
     (dist > 0.0 && dist.is_finite()).then(|| (Ray::new(origin, to / dist), dist * (1.0 - 1e-4)))
+}
+
+/// Shadow rays from one surface point to many targets (the samples of an area light): the
+/// rays of [`spawn_ray_to`], bit for bit, with the offset origin on each side of the
+/// surface computed once rather than per ray.
+#[derive(Clone, Copy, Debug)]
+pub struct ShadowRays {
+    p: Vec3,
+    n: Vec3,
+    d: f32,
+    /// The offset origin on the side of `n`, then of `-n`, once computed.
+    origins: [Option<Vec3>; 2],
+}
+
+impl ShadowRays {
+    /// Rays leaving surface point `p` (error bound `p_error`, geometric normal `ng`).
+    #[must_use]
+    pub fn new(p: Vec3, p_error: Vec3, ng: Vec3) -> Self {
+        Self { p, n: ng, d: ng.abs().dot(p_error), origins: [None; 2] }
+    }
+
+    /// The shadow ray towards `target` and its `t_max`, as [`spawn_ray_to`].
+    #[inline]
+    pub fn to(&mut self, target: Vec3) -> Option<(Ray, f32)> {
+        let back = (target - self.p).dot(self.n) < 0.0;
+        let origin =
+            *self.origins[usize::from(back)].get_or_insert_with(|| offset_along(self.p, self.d, if back { -self.n } else { self.n }));
+        let to = target - origin;
+        let dist = to.length();
+        (dist > 0.0 && dist.is_finite()).then(|| (Ray::new(origin, to / dist), dist * (1.0 - 1e-4)))
+    }
 }
 
 #[cfg(test)]
@@ -198,5 +235,23 @@ mod tests {
         assert!(!Ray::new(Vec3::ZERO, Vec3::ZERO).is_valid());
         assert!(!Ray::new(Vec3::ZERO, Vec3::new(f32::NAN, 0.0, 1.0)).is_valid());
         assert!(!Ray::new(Vec3::splat(f32::INFINITY), Vec3::X).is_valid());
+    }
+
+    #[test]
+    fn shadow_rays_from_one_point_are_those_of_spawn_ray_to() {
+        let mut rng = crate::math::sampling::Sampler::from_seed(7);
+        for _ in 0..200 {
+            let mut r = || rng.next_f32() * 20.0 - 10.0;
+            let p = Vec3::new(r(), r(), r());
+            let err = Vec3::new(r().abs(), r().abs(), r().abs()) * 1e-5;
+            let ng = Vec3::new(r(), r(), r()).normalize();
+            let mut rays = ShadowRays::new(p, err, ng);
+            for _ in 0..8 {
+                let target = Vec3::new(r(), r(), r());
+                assert_eq!(rays.to(target), spawn_ray_to(p, err, ng, target));
+            }
+            assert_eq!(rays.to(p), spawn_ray_to(p, err, ng, p));
+            assert_eq!(rays.to(Vec3::splat(f32::NAN)), None);
+        }
     }
 }
