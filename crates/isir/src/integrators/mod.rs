@@ -10,6 +10,7 @@
 mod direct;
 mod path;
 mod ray_cast;
+mod shadow;
 mod whitted;
 
 use crate::materials::Material;

@@ -9,14 +9,16 @@
 //! direct-lighting integrator's image. Point lights are met by next-event estimation
 //! only. The background is a uniform environment: any ray leaving the scene brings it.
 
+use super::shadow::{QuadBatch, BATCH};
 use super::RayCounters;
 use crate::geometry::Hit;
+use crate::lights::{LightSample, LightSampler};
 use crate::materials::Material;
 use crate::math::color::Color;
 use crate::math::ray::Ray;
 use crate::math::sampling::Sampler;
 use crate::scene::Scene;
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 /// Russian roulette starts once a path has this many BSDF-sampled rays: the first
 /// bounces carry most of the light and are always traced.
@@ -127,22 +129,40 @@ fn next_event(
         let light_sampler = light.sampler();
         let n = if light.is_surface() { n_light } else { 1 };
         let mut acc = Color::ZERO;
-        for _ in 0..n {
-            let ls = light_sampler.sample(hit.point, sampler.next_2d());
+        let mut visit = |ls: &LightSample, ray: Option<(Ray, f32)>, acc: &mut Color| {
             if ls.radiance == Color::ZERO || ls.pdf.is_nan() || ls.pdf <= 0.0 {
-                continue;
+                return;
             }
             let f = material.eval(hit, wo, ls.direction);
             if f == Color::ZERO {
-                continue;
+                return;
             }
-            let Some((shadow, t_max)) = shadow_rays.to(ls.point) else { continue };
+            let Some((shadow, t_max)) = ray else { return };
             counters.shadow += 1;
             if scene.occluded(&shadow, 0.0, t_max) {
-                continue;
+                return;
             }
             let w = if light.is_surface() { power_heuristic(n as f32, ls.pdf, 1.0, material.pdf(hit, wo, ls.direction)) } else { 1.0 };
-            acc += f * ls.radiance * ls.direction.dot(hit.normal).abs() * w;
+            *acc += f * ls.radiance * ls.direction.dot(hit.normal).abs() * w;
+        };
+        if let LightSampler::Quad { .. } = light_sampler {
+            // Sixteen samples set up at a time (`QuadBatch`), then used in order.
+            let mut xi = [Vec2::ZERO; BATCH];
+            for first in (0..n).step_by(BATCH) {
+                let count = (n - first).min(BATCH as u32) as usize;
+                for x in &mut xi[..count] {
+                    *x = sampler.next_2d();
+                }
+                let batch = QuadBatch::new(&light_sampler, &shadow_rays, hit.normal, &xi);
+                for j in 0..count {
+                    visit(&batch.sample(j), batch.has_ray[j].then(|| batch.shadow_ray(j)), &mut acc);
+                }
+            }
+        } else {
+            for _ in 0..n {
+                let ls = light_sampler.sample(hit.point, sampler.next_2d());
+                visit(&ls, shadow_rays.to(ls.point), &mut acc);
+            }
         }
         sum += acc / n as f32;
     }

@@ -158,6 +158,19 @@ impl ShadowRays {
         Self { p, n: ng, d: ng.abs().dot(p_error), origins: [None; 2] }
     }
 
+    /// The surface point the rays leave from and its geometric normal.
+    #[must_use]
+    pub fn surface(&self) -> (Vec3, Vec3) {
+        (self.p, self.n)
+    }
+
+    /// The two offset origins: on the side of the normal (targets `y` with
+    /// `(y - p)·n >= 0`), and on the other side. [`ShadowRays::to`] uses one of them.
+    #[must_use]
+    pub fn both_origins(&self) -> [Vec3; 2] {
+        [offset_along(self.p, self.d, self.n), offset_along(self.p, self.d, -self.n)]
+    }
+
     /// The shadow ray towards `target` and its `t_max`, as [`spawn_ray_to`].
     #[inline]
     pub fn to(&mut self, target: Vec3) -> Option<(Ray, f32)> {
