@@ -46,7 +46,7 @@ pub(super) fn direct_lighting(
         let n = if light.is_surface() { light_samples.max(1) } else { 1 };
         let mut sum = Color::ZERO;
         if let LightSampler::Quad { .. } = light_sampler {
-            // Sixteen samples at a time, set up together (`QuadBatch`), then traced and
+            // Eight samples at a time, set up together (`QuadBatch`), then traced and
             // summed in order: the same sum as one sample at a time.
             let mut xi = [Vec2::ZERO; BATCH];
             for first in (0..n).step_by(BATCH) {
