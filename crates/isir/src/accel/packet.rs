@@ -24,7 +24,7 @@ impl WideBvh {
         #[cfg(target_arch = "x86_64")]
         if self.level() == SimdLevel::Avx512 && !self.watertight && self.root != crate::accel::wide::EMPTY {
             // SAFETY: the level is only ever Avx512 when the CPU reported AVX-512.
-            if unsafe { self.packet_avx512(rays, out) } {
+            if unsafe { self.packet_avx512::<false>(rays, out) } {
                 return;
             }
         }
@@ -33,11 +33,57 @@ impl WideBvh {
         }
     }
 
+    /// Which of up to [`PACKET`] rays meet a triangle in their interval: bit `i` set when
+    /// `rays[i]` is occluded, the answer [`WideBvh::occluded`] gives it. For the shadow
+    /// rays of one point towards an area light: traced together in AVX-512 packets, one
+    /// per octant of their directions, each ray retired at its first hit.
+    ///
+    /// # Panics
+    /// If `rays` holds more than [`PACKET`] rays.
+    #[must_use]
+    pub fn occluded_packet(&self, rays: &[RaySegment]) -> u32 {
+        assert!(rays.len() <= PACKET);
+        let single = |r: &RaySegment| self.occluded(&r.ray(), r.t_min, r.t_max);
+        #[cfg(target_arch = "x86_64")]
+        if self.level() == SimdLevel::Avx512 && !self.watertight && self.root != crate::accel::wide::EMPTY && rays.len() > 1 {
+            let mut octants = [0u32; 8];
+            for (i, r) in rays.iter().enumerate() {
+                let (_, neg) = crate::accel::wide::slab_inverse(r.direction);
+                octants[usize::from(neg[0]) | usize::from(neg[1]) << 1 | usize::from(neg[2]) << 2] |= 1 << i;
+            }
+            let mut occluded = 0;
+            for lanes in octants.into_iter().filter(|&m| m != 0) {
+                if lanes.is_power_of_two() {
+                    let i = lanes.trailing_zeros() as usize;
+                    occluded |= u32::from(single(&rays[i])) << i;
+                    continue;
+                }
+                let mut group = [rays[0]; PACKET];
+                let mut index = [0usize; PACKET];
+                let mut n = 0;
+                for i in (0..rays.len()).filter(|&i| lanes & (1 << i) != 0) {
+                    (group[n], index[n]) = (rays[i], i);
+                    n += 1;
+                }
+                let mut out = [None; PACKET];
+                // SAFETY: the level is only ever Avx512 when the CPU reported AVX-512.
+                let traced = unsafe { self.packet_avx512::<true>(&group[..n], &mut out) };
+                debug_assert!(traced, "one octant");
+                for k in 0..n {
+                    occluded |= u32::from(out[k].is_some()) << index[k];
+                }
+            }
+            return occluded;
+        }
+        rays.iter().enumerate().fold(0, |m, (i, r)| m | u32::from(single(r)) << i)
+    }
+
     /// The AVX-512 packet traversal; false (nothing written) when the rays' direction
-    /// signs differ, which the octant-ordered box test cannot handle.
+    /// signs differ, which the octant-ordered box test cannot handle. With `ANY`, each
+    /// ray stops at its first hit (which `out` then holds).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
-    unsafe fn packet_avx512(&self, rays: &[RaySegment], out: &mut [Option<MeshHit>]) -> bool {
+    unsafe fn packet_avx512<const ANY: bool>(&self, rays: &[RaySegment], out: &mut [Option<MeshHit>]) -> bool {
         use crate::accel::wide::{leaf_blocks, EMPTY, LEAF, STACK_SIZE, WIDEN};
         use std::arch::x86_64::*;
 
@@ -88,7 +134,9 @@ impl WideBvh {
         let mut sp = 0usize;
         let mut cur = self.root;
         let mut cur_mask = active;
-        loop {
+        // Rays still looking for a hit (all of them unless `ANY`).
+        let mut live = active;
+        'walk: loop {
             if cur & LEAF == 0 {
                 // ---- Inner node: eight boxes, each against sixteen rays ----
                 // SAFETY: inner-node codes are written by `convert`.
@@ -212,6 +260,14 @@ impl WideBvh {
                             hu = _mm512_mask_mov_ps(hu, m, u);
                             hv = _mm512_mask_mov_ps(hv, m, v);
                             prim = _mm512_mask_mov_epi32(prim, m, _mm512_set1_epi32(id as i32));
+                            if ANY {
+                                // Any hit will do: these rays are done.
+                                live &= !m;
+                                cur_mask &= !m;
+                                if live == 0 {
+                                    break 'walk;
+                                }
+                            }
                         }
                     }
                 }
@@ -219,22 +275,12 @@ impl WideBvh {
             // ---- Pop a node some of whose rays still enter before their closest hit ----
             loop {
                 if sp == 0 {
-                    let (mut ts, mut us, mut vs, mut ps) = ([0f32; PACKET], [0f32; PACKET], [0f32; PACKET], [0u32; PACKET]);
-                    _mm512_storeu_ps(ts.as_mut_ptr(), t_best);
-                    _mm512_storeu_ps(us.as_mut_ptr(), hu);
-                    _mm512_storeu_ps(vs.as_mut_ptr(), hv);
-                    _mm512_storeu_si512(ps.as_mut_ptr().cast(), prim);
-                    for i in 0..rays.len() {
-                        if ps[i] != EMPTY && active & (1 << i) != 0 {
-                            out[i] = Some(MeshHit { t: ts[i], prim: ps[i], u: us[i], v: vs[i] });
-                        }
-                    }
-                    return true;
+                    break 'walk;
                 }
                 sp -= 1;
                 // SAFETY: every entry below the old `sp` was written by a push.
                 let near = nears.get_unchecked(sp).assume_init();
-                let m = _mm512_mask_cmp_ps_mask::<_CMP_LT_OQ>(*masks.get_unchecked(sp), near, t_best);
+                let m = _mm512_mask_cmp_ps_mask::<_CMP_LT_OQ>(*masks.get_unchecked(sp) & live, near, t_best);
                 if m != 0 {
                     cur = *codes.get_unchecked(sp);
                     cur_mask = m;
@@ -242,5 +288,16 @@ impl WideBvh {
                 }
             }
         }
+        let (mut ts, mut us, mut vs, mut ps) = ([0f32; PACKET], [0f32; PACKET], [0f32; PACKET], [0u32; PACKET]);
+        _mm512_storeu_ps(ts.as_mut_ptr(), t_best);
+        _mm512_storeu_ps(us.as_mut_ptr(), hu);
+        _mm512_storeu_ps(vs.as_mut_ptr(), hv);
+        _mm512_storeu_si512(ps.as_mut_ptr().cast(), prim);
+        for i in 0..rays.len() {
+            if ps[i] != EMPTY && active & (1 << i) != 0 {
+                out[i] = Some(MeshHit { t: ts[i], prim: ps[i], u: us[i], v: vs[i] });
+            }
+        }
+        true
     }
 }

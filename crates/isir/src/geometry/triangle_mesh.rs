@@ -506,6 +506,17 @@ impl TriangleMesh {
         }
     }
 
+    /// [`Self::occluded`] for up to [`crate::accel::packet::PACKET`] rays: bit `i` set
+    /// when `rays[i]` is occluded. Traced together through the wide BVH
+    /// ([`WideBvh::occluded_packet`]), one at a time otherwise.
+    #[must_use]
+    pub fn occluded_packet(&self, rays: &[crate::math::ray::RaySegment]) -> u32 {
+        match &self.accel {
+            MeshAccel::Wide(w) => w.occluded_packet(rays),
+            _ => rays.iter().enumerate().fold(0, |m, (i, r)| m | u32::from(self.occluded(&r.ray(), r.t_min, r.t_max)) << i),
+        }
+    }
+
     /// The face normal `normalize((v1-v0) × (v2-v0))` of triangle `prim`.
     #[must_use]
     pub fn face_normal(&self, prim: u32) -> Vec3 {

@@ -10,11 +10,11 @@
 
 use crate::lights::{LightSample, LightSampler};
 use crate::math::color::Color;
-use crate::math::ray::{Ray, ShadowRays};
+use crate::math::ray::{Ray, RaySegment, ShadowRays};
 use glam::{Vec2, Vec3};
 
 /// Samples per batch.
-pub(super) const BATCH: usize = 8;
+pub(super) const BATCH: usize = 16;
 
 /// Up to [`BATCH`] samples of a quad light from one hit, and their shadow rays.
 pub(super) struct QuadBatch {
@@ -146,10 +146,50 @@ impl QuadBatch {
         Vec3::new(self.radiance[0][j], self.radiance[1][j], self.radiance[2][j])
     }
 
+    /// The shadow rays of the live samples among the first `count`, in order, and which
+    /// samples they are.
+    pub(super) fn live_rays(&self, count: usize) -> ([RaySegment; BATCH], arrayvec_lite::Lanes) {
+        let mut rays = [RaySegment { origin: Vec3::ZERO, t_min: 0.0, direction: Vec3::ZERO, t_max: 0.0 }; BATCH];
+        let mut lanes = arrayvec_lite::Lanes::default();
+        for j in (0..count).filter(|&j| self.live[j]) {
+            let (ray, t_max) = self.shadow_ray(j);
+            rays[lanes.len()] = RaySegment { origin: ray.origin, t_min: 0.0, direction: ray.direction, t_max };
+            lanes.push(j);
+        }
+        (rays, lanes)
+    }
+
     /// The shadow ray of sample `j` and its `t_max`, as [`ShadowRays::to`] returns them.
     pub(super) fn shadow_ray(&self, j: usize) -> (Ray, f32) {
         let at = |a: &[[f32; BATCH]; 3]| Vec3::new(a[0][j], a[1][j], a[2][j]);
         (Ray::new(at(&self.origin), at(&self.dir)), self.t_max[j])
+    }
+}
+
+/// A short list of sample indices (at most [`BATCH`]).
+mod arrayvec_lite {
+    use super::BATCH;
+
+    /// Up to [`BATCH`] sample indices.
+    #[derive(Default)]
+    pub(in crate::integrators) struct Lanes {
+        index: [usize; BATCH],
+        len: usize,
+    }
+
+    impl Lanes {
+        pub(in crate::integrators) fn push(&mut self, j: usize) {
+            self.index[self.len] = j;
+            self.len += 1;
+        }
+
+        pub(in crate::integrators) fn len(&self) -> usize {
+            self.len
+        }
+
+        pub(in crate::integrators) fn iter(&self) -> std::slice::Iter<'_, usize> {
+            self.index[..self.len].iter()
+        }
     }
 }
 

@@ -12,7 +12,7 @@ use crate::lights::Light;
 use crate::materials::{Material, MaterialId};
 use crate::math::aabb::Aabb;
 use crate::math::color::Color;
-use crate::math::ray::Ray;
+use crate::math::ray::{Ray, RaySegment};
 use glam::Vec3;
 
 /// An object: a geometry and the materials of its parts (one, or one per mesh material).
@@ -153,6 +153,37 @@ impl Scene {
                     || top.unbounded.iter().any(|&i| self.blocks(i as usize, ray, t_min, t_max))
             }
         }
+    }
+
+    /// [`Scene::occluded`] for up to [`crate::accel::packet::PACKET`] rays (the shadow
+    /// rays of one point): bit `i` set when `rays[i]` is occluded. Meshes trace the rays
+    /// still open together ([`TriangleMesh::occluded_packet`]).
+    ///
+    /// # Panics
+    /// If there are more than [`crate::accel::packet::PACKET`] rays.
+    #[must_use]
+    pub fn occluded_packet(&self, rays: &[RaySegment]) -> u32 {
+        assert!(rays.len() <= crate::accel::packet::PACKET);
+        let single = |i: usize| u32::from(self.occluded(&rays[i].ray(), rays[i].t_min, rays[i].t_max)) << i;
+        if self.top_level.is_some() || rays.len() < 2 {
+            return (0..rays.len()).fold(0, |m, i| m | single(i));
+        }
+        let mut open: u32 = (0..rays.len()).filter(|&i| rays[i].ray().is_valid()).fold(0, |m, i| m | 1 << i);
+        let mut occluded = 0;
+        for (i, object) in self.objects.iter().enumerate() {
+            if open == 0 {
+                break;
+            }
+            let blocked = match &object.geometry {
+                Geometry::Mesh(m) if open == (1 << rays.len()) - 1 => m.occluded_packet(rays),
+                _ => (0..rays.len())
+                    .filter(|&k| open & (1 << k) != 0)
+                    .fold(0, |m, k| m | u32::from(self.blocks(i, &rays[k].ray(), rays[k].t_min, rays[k].t_max)) << k),
+            };
+            occluded |= blocked;
+            open &= !blocked;
+        }
+        occluded
     }
 
     /// The closest hit of object `i` in `[t_min, t_max)`: `(t, prim, u, v)`.
