@@ -455,7 +455,12 @@ impl TriangleMesh {
                 });
                 best
             }
-            MeshAccel::Wide(w) => w.intersect(ray, t_min, t_max),
+            MeshAccel::Wide(w) => {
+                if !self.may_hit(ray, t_min, t_max) {
+                    return None;
+                }
+                w.intersect(ray, t_min, t_max)
+            }
         }
     }
 
@@ -490,6 +495,26 @@ impl TriangleMesh {
         }
     }
 
+    /// False only when the ray certainly misses the mesh in `[t_min, t_max)`: a slab test
+    /// of the mesh's box grown by 2^-16 of its size and of its distance from the origin, far
+    /// more than the rounding of any test inside. PERF: before the wide traversal, whose
+    /// set-up (three divisions, its stack) costs more than this on rays that miss the box:
+    /// `tp4-bunny` at 64 spp, most rays on the room's planes: ray cast 0.77 -> 0.65 s,
+    /// direct lighting 1.68 -> 1.48 s.
+    #[inline]
+    fn may_hit(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+        let (inv, _) = crate::accel::wide::slab_inverse(ray.direction);
+        let margin =
+            Vec3::splat((self.aabb.max - self.aabb.min).max_element() + self.aabb.min.abs().max(self.aabb.max.abs()).max_element())
+                * (1.0 / 65_536.0);
+        let a = (self.aabb.min - margin - ray.origin) * inv;
+        let b = (self.aabb.max + margin - ray.origin) * inv;
+        let near = a.min(b).max_element().max(t_min);
+        let far = a.max(b).min_element().min(t_max);
+        // NaN anywhere: no verdict here.
+        !(near - near.abs() * 1e-5 > far + far.abs() * 1e-5)
+    }
+
     /// True when some triangle meets the ray in `[t_min, t_max)` (any-hit query).
     #[must_use]
     pub fn occluded(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
@@ -502,7 +527,7 @@ impl TriangleMesh {
                 let test = self.ray_test(ray);
                 bvh.occluded(ray, t_min, t_max, |prim, t_max| self.hit_triangle(&test, prim, t_min, t_max).is_some())
             }
-            MeshAccel::Wide(w) => w.occluded(ray, t_min, t_max),
+            MeshAccel::Wide(w) => self.may_hit(ray, t_min, t_max) && w.occluded(ray, t_min, t_max),
         }
     }
 
