@@ -511,8 +511,9 @@ impl TriangleMesh {
         let b = (self.aabb.max + margin - ray.origin) * inv;
         let near = a.min(b).max_element().max(t_min);
         let far = a.max(b).min_element().min(t_max);
-        // NaN anywhere: no verdict here.
-        !(near - near.abs() * 1e-5 > far + far.abs() * 1e-5)
+        // NaN anywhere: no verdict here (only a definite "entry after exit" rejects).
+        let (near, far) = (near - near.abs() * 1e-5, far + far.abs() * 1e-5);
+        near.partial_cmp(&far) != Some(std::cmp::Ordering::Greater)
     }
 
     /// True when some triangle meets the ray in `[t_min, t_max)` (any-hit query).
