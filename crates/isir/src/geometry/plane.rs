@@ -1,6 +1,6 @@
 //! Infinite plane (a point and a normal).
 
-use crate::math::ray::{gamma, Ray};
+use crate::math::ray::{gamma, lane_mask, Ray, RayLanes, LANES};
 use glam::Vec3;
 
 /// An infinite plane through `point` with unit `normal`.
@@ -30,6 +30,22 @@ impl Plane {
         (t >= t_min && t < t_max).then_some(t)
     }
 
+    /// Which of the rays `rays` meet the plane in their interval: bit `k` for lane `k`, the
+    /// answers of [`Plane::intersect`] (the same operations lane by lane, vectorised).
+    #[must_use]
+    #[allow(clippy::needless_range_loop)] // one index into many arrays: the loop vectorises
+    pub fn hit_lanes(&self, rays: &RayLanes) -> u32 {
+        let (p, n) = (self.point, self.normal);
+        let mut hit = [false; LANES];
+        for k in 0..LANES {
+            let (o, d) = ([rays.o[0][k], rays.o[1][k], rays.o[2][k]], [rays.d[0][k], rays.d[1][k], rays.d[2][k]]);
+            let denom = d[0] * n.x + d[1] * n.y + d[2] * n.z;
+            let t = ((p.x - o[0]) * n.x + (p.y - o[1]) * n.y + (p.z - o[2]) * n.z) / denom;
+            hit[k] = denom != 0.0 && t >= rays.t_min[k] && t < rays.t_max[k];
+        }
+        lane_mask(&hit)
+    }
+
     /// The point where the ray meets the plane at `t`, and a bound on its error per axis:
     /// `o + t·d` projected back onto the plane along its normal, within the rounding of the
     /// projection (a few ULPs of the magnitudes involved, bounded by `γ(8)`).
@@ -53,5 +69,44 @@ mod tests {
         assert_eq!(p.intersect(&Ray::new(Vec3::new(0.0, -5.0, 0.0), Vec3::Y), 0.0, f32::INFINITY), Some(2.0));
         assert_eq!(p.intersect(&Ray::new(Vec3::ZERO, Vec3::X), 0.0, f32::INFINITY), None);
         assert_eq!(p.intersect(&Ray::new(Vec3::ZERO, Vec3::Y), 0.0, f32::INFINITY), None);
+    }
+
+    /// `hit_lanes` answers as `intersect` on each lane: random rays from inside, outside
+    /// and on the surface, grazing ones, zero and NaN directions, empty intervals.
+    #[test]
+    fn hit_lanes_answers_as_intersect() {
+        use crate::math::ray::{RayLanes, RaySegment, LANES};
+        let shape = Plane::new(Vec3::new(0.0, -1.0, 0.5), Vec3::new(0.2, 1.0, -0.1));
+        let mut rng = crate::math::sampling::Sampler::from_seed(9);
+        let (mut hits, mut total) = (0, 0);
+        for round in 0..4000 {
+            let mut r = || rng.next_f32() * 6.0 - 3.0;
+            let mut rays = Vec::new();
+            for k in 0..LANES {
+                let origin = Vec3::new(r(), r(), r() + 3.0);
+                let mut direction = Vec3::new(r(), r(), r());
+                let (mut t_min, mut t_max) = (0.0, if k % 3 == 0 { f32::INFINITY } else { r().abs() * 4.0 });
+                match (round + k) % 11 {
+                    0 => direction = Vec3::ZERO,
+                    1 => direction.x = f32::NAN,
+                    2 => t_max = 0.0,
+                    3 => t_min = -1.0,
+                    _ => {}
+                }
+                rays.push(RaySegment { origin, t_min, direction, t_max });
+            }
+            let n = 1 + round % LANES;
+            let lanes = RayLanes::new(&rays[..n]);
+            let mask = shape.hit_lanes(&lanes);
+            for (k, ray) in rays[..n].iter().enumerate() {
+                let expected = shape.intersect(&ray.ray(), ray.t_min, ray.t_max).is_some();
+                assert_eq!(mask & (1 << k) != 0, expected, "{ray:?}");
+                hits += usize::from(expected);
+                total += 1;
+            }
+            // Unused lanes (zero rays) hit nothing.
+            assert_eq!(mask >> n, 0);
+        }
+        assert!(hits > total / 10 && hits < total * 9 / 10, "{hits} of {total}");
     }
 }

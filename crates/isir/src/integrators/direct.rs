@@ -68,9 +68,6 @@ pub(super) fn direct_lighting(
     li
 }
 
-/// The fewest shadow rays traced as a packet.
-const PACKET_FROM: usize = 12;
-
 /// A quad light's average over its `n` samples: eight samples at a time, set up together
 /// ([`QuadBatch`]), then traced and summed in order (the same sum as one sample at a time).
 /// PERF: out of line, so that point lights keep a small `direct_lighting` (inlined, it made
@@ -98,14 +95,8 @@ fn quad_light(
         let batch = QuadBatch::new(light_sampler, shadow_rays, hit.normal, &xi);
         let (rays, lanes) = batch.live_rays(count);
         counters.shadow += lanes.len() as u64;
-        // PERF: sixteen shadow rays of one point go faster as a packet (conference room,
-        // 16 light samples: 0.85× the time of single rays), eight slower (1.07×): packets
-        // from twelve rays on.
-        let blocked = if lanes.len() >= PACKET_FROM {
-            scene.occluded_packet(&rays[..lanes.len()])
-        } else {
-            rays[..lanes.len()].iter().enumerate().fold(0, |m, (k, r)| m | u32::from(scene.occluded(&r.ray(), 0.0, r.t_max)) << k)
-        };
+        // All the hit's shadow rays at once (`Scene::occluded_packet` decides how).
+        let blocked = scene.occluded_packet(&rays[..lanes.len()]);
         for (k, &j) in lanes.iter().enumerate() {
             if blocked & (1 << k) == 0 {
                 sum += material.shade(ray, hit, &batch.sample(j)) * batch.radiance(j) * batch.cos[j];

@@ -58,6 +58,51 @@ impl RaySegment {
     }
 }
 
+/// Lanes in a [`RayLanes`].
+pub const LANES: usize = 16;
+
+/// Up to [`LANES`] rays as structure of arrays, for tests of one shape against many rays
+/// in straight-line loops the compiler vectorises (unused lanes hold zero rays).
+#[derive(Clone, Copy, Debug)]
+pub struct RayLanes {
+    /// Origins by component.
+    pub o: [[f32; LANES]; 3],
+    /// Directions by component.
+    pub d: [[f32; LANES]; 3],
+    /// Starts of the intervals.
+    pub t_min: [f32; LANES],
+    /// Ends of the intervals.
+    pub t_max: [f32; LANES],
+}
+
+impl RayLanes {
+    /// The rays `rays` (at most [`LANES`]).
+    ///
+    /// # Panics
+    /// If there are more than [`LANES`] rays.
+    #[must_use]
+    pub fn new(rays: &[RaySegment]) -> Self {
+        assert!(rays.len() <= LANES);
+        let mut l = RayLanes { o: [[0.0; LANES]; 3], d: [[0.0; LANES]; 3], t_min: [0.0; LANES], t_max: [0.0; LANES] };
+        for (k, r) in rays.iter().enumerate() {
+            for axis in 0..3 {
+                l.o[axis][k] = r.origin[axis];
+                l.d[axis][k] = r.direction[axis];
+            }
+            l.t_min[k] = r.t_min;
+            l.t_max[k] = r.t_max;
+        }
+        l
+    }
+}
+
+/// The bits `0..LANES` of the lanes where `hit` holds.
+#[inline]
+#[must_use]
+pub fn lane_mask(hit: &[bool; LANES]) -> u32 {
+    hit.iter().enumerate().fold(0, |m, (k, &h)| m | u32::from(h) << k)
+}
+
 /// `γ(n) = n·u / (1 - n·u)` with `u` half an ULP of 1: a bound on the relative rounding
 /// error of `n` chained float operations (Higham; pbrt-v4 §6.8.1 `gamma`).
 #[inline]
