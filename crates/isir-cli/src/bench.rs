@@ -1,4 +1,4 @@
-//! `isir bench`: build, generate the three ray sets of a scene, trace them, and print one
+//! `isir bench`: build, generate the four ray sets of a scene, trace them, and print one
 //! table; with `embree-bench` (Embree 3, tools/embree3-bench) and/or `embree4-bench`
 //! (Embree 4, tools/embree4-bench) found, run each on the same files in the same run and
 //! print, one table per engine, the ratio isir / Embree and the hit agreement.
@@ -59,7 +59,7 @@ pub struct BenchArgs {
 /// One round of measurements: isir's build and traces, then each engine's on the same files.
 struct Round {
     build_ms: f64,
-    /// Closest/occluded traces of the three sets, then the packets.
+    /// Closest/occluded traces of the four sets, then the packets.
     ours: Vec<TraceFigures>,
     /// Per engine found: its figures on the three sets, then its stream mode.
     theirs: Vec<Vec<HashMap<String, String>>>,
@@ -202,7 +202,7 @@ fn bench_in(
     dir: &Path,
     engines: &[Engine],
 ) -> anyhow::Result<()> {
-    // ---- The scene's mesh is the one traced; the three ray sets ----
+    // ---- The scene's mesh is the one traced; the four ray sets ----
     let mut mesh = scene.meshes().next().map(|(_, m)| m.clone()).with_context(|| format!("{name}: the scene has no mesh"))?;
     let camera = desc.camera.build(a.width as f32 / a.height as f32);
     let mut sets = Vec::new();

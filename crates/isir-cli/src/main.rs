@@ -31,7 +31,7 @@ enum Command {
     Rays(trace::RaysArgs),
     /// Trace a ray file against a mesh and print `key: value` figures.
     Trace(trace::TraceArgs),
-    /// Build, trace the three ray sets of a scene and print one table (with Embree
+    /// Build, trace the four ray sets of a scene and print one table (with Embree
     /// beside it when `embree-bench` is found).
     Bench(bench::BenchArgs),
 }

@@ -14,7 +14,7 @@ use std::time::Instant;
 pub struct RaysArgs {
     /// A built-in scene (`isir scenes`) or a mesh file (OBJ or PLY).
     pub scene: String,
-    /// Which ray set (primary, diffuse, shadow).
+    /// Which ray set (primary, diffuse, shadow, random).
     #[arg(long)]
     pub kind: RayKind,
     /// Output ray file.

@@ -518,7 +518,8 @@ fn bench_compares_with_embree_3_and_embree_4_found_in_the_cache() {
     for (table, label) in tables.iter().zip(["embree", "embree4"]) {
         let head: Vec<&str> = table[0].split_whitespace().collect();
         assert_eq!(head, ["figure", "isir", label, &format!("isir/{label}"), "hits", "agree"], "{out}");
-        for row in ["build (Mtris/s)", "primary closest", "diffuse closest", "shadow occluded", "primary packets/stream"] {
+        for row in ["build (Mtris/s)", "primary closest", "diffuse closest", "shadow occluded", "random closest", "primary packets/stream"]
+        {
             let line = table.iter().find(|l| l.starts_with(row)).unwrap_or_else(|| panic!("no '{row}' row in:\n{out}"));
             // isir, the engine and the ratio are all figures (the engine's parsed from its output).
             let figures: Vec<f64> = line[row.len()..].split_whitespace().filter_map(|w| w.parse().ok()).collect();
@@ -528,16 +529,17 @@ fn bench_compares_with_embree_3_and_embree_4_found_in_the_cache() {
             }
         }
     }
-    // Each tool got exactly what the real ones take: three single-ray sets (shadow rays
+    // Each tool got exactly what the real ones take: four single-ray sets (shadow rays
     // occluded), then the primary rays in stream mode, with the hit files named per engine.
     for (tool, tag) in [(&e3, "embree"), (&e4, "embree4")] {
         let log = std::fs::read_to_string(tool.with_extension("log")).unwrap();
         let calls: Vec<&str> = log.lines().collect();
-        assert_eq!(calls.len(), 4, "{log}");
+        assert_eq!(calls.len(), 5, "{log}");
         for (call, (set, tail)) in calls.iter().zip([
             ("primary", format!("primary.{tag}.hits --quality medium --repeat 1 --threads 1 --mode single")),
             ("diffuse", format!("diffuse.{tag}.hits --quality medium --repeat 1 --threads 1 --mode single")),
             ("shadow", format!("shadow.{tag}.hits --quality medium --repeat 1 --threads 1 --mode single --occluded")),
+            ("random", format!("random.{tag}.hits --quality medium --repeat 1 --threads 1 --mode single")),
             ("primary", format!("primary.{tag}-stream.hits --quality medium --repeat 1 --threads 1 --mode stream")),
         ]) {
             let words: Vec<&str> = call.split_whitespace().collect();
@@ -559,7 +561,7 @@ fn bench_with_embree_3_alone_prints_its_one_table_and_no_embree_runs_none() {
     let tables = bench_tables(&out);
     assert_eq!(tables.len(), 1, "{out}");
     assert_eq!(tables[0][0], format!("{:<28} {:>12} {:>12} {:>20} {:>14}", "figure", "isir", "embree", "isir/embree", "hits agree"));
-    assert!(tables[0].iter().filter(|l| l.ends_with("100.0000%")).count() == 4, "{out}");
+    assert!(tables[0].iter().filter(|l| l.ends_with("100.0000%")).count() == 5, "{out}");
     // --no-embree: a tool in the cache is not even started.
     let e4 = cache.join("isir").join("embree4-bench");
     fake_embree(&e4);

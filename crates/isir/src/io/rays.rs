@@ -4,7 +4,7 @@
 use crate::camera::Camera;
 use crate::error::{Error, Result};
 use crate::math::ray::RaySegment;
-use crate::math::sampling::{pixel_rng, square_to_cosine_hemisphere};
+use crate::math::sampling::{pixel_rng, square_to_cosine_hemisphere, square_to_uniform_sphere};
 use crate::scene::Scene;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -207,11 +207,15 @@ pub enum RayKind {
     /// From each primary hit towards a random point of the scene's first light, `t_max`
     /// just short of it; misses dropped.
     Shadow,
+    /// One ray per pixel from a uniformly random point of the box of the scene's bounded
+    /// objects in a uniformly random direction, closest hit: no coherence at all (the
+    /// camera only sets how many).
+    Random,
 }
 
 impl RayKind {
     /// Every kind.
-    pub const ALL: [RayKind; 3] = [RayKind::Primary, RayKind::Diffuse, RayKind::Shadow];
+    pub const ALL: [RayKind; 4] = [RayKind::Primary, RayKind::Diffuse, RayKind::Shadow, RayKind::Random];
 
     /// The command-line name.
     #[must_use]
@@ -220,13 +224,14 @@ impl RayKind {
             RayKind::Primary => "primary",
             RayKind::Diffuse => "diffuse",
             RayKind::Shadow => "shadow",
+            RayKind::Random => "random",
         }
     }
 }
 
 impl std::str::FromStr for RayKind {
     type Err = String;
-    /// Parse `primary`, `diffuse` or `shadow`.
+    /// Parse `primary`, `diffuse`, `shadow` or `random`.
     fn from_str(s: &str) -> std::result::Result<Self, String> {
         crate::parse_name(s, &Self::ALL, Self::name, "ray set")
     }
@@ -290,7 +295,18 @@ fn check_kind(scene: &Scene, kind: RayKind) -> Result<()> {
     if kind == RayKind::Shadow && scene.lights.is_empty() {
         return Err(Error::Scene("shadow rays need a light, and this scene has none".into()));
     }
+    if kind == RayKind::Random && scene_box(scene).is_none() {
+        return Err(Error::Scene("random rays start inside the box of the scene's bounded objects, and this scene has none".into()));
+    }
     Ok(())
+}
+
+/// The box of the scene's bounded objects (planes have none), if it is not empty.
+fn scene_box(scene: &Scene) -> Option<crate::math::aabb::Aabb> {
+    let b = (0..scene.objects.len())
+        .filter_map(|i| scene.object_bounds(i))
+        .fold(crate::math::aabb::Aabb::EMPTY, |b: crate::math::aabb::Aabb, o| b.union(&o));
+    (!b.is_empty() && b.min.is_finite() && b.max.is_finite()).then_some(b)
 }
 
 /// The rays of the rows `rows` of the set, row by row from the top-left, in parallel.
@@ -303,10 +319,19 @@ fn generate_rows(
     seed: u64,
     rows: std::ops::Range<u32>,
 ) -> Vec<RayRecord> {
+    let bounds = if kind == RayKind::Random { scene_box(scene) } else { None };
     rows.into_par_iter()
         .flat_map_iter(|y| {
             let mut out = Vec::with_capacity(width as usize);
             for x in 0..width {
+                if let Some(b) = bounds {
+                    let mut rng = pixel_rng(seed, u64::from(y) * u64::from(width) + u64::from(x), 0);
+                    let (a, c) = (rng.next_2d(), rng.next_f32());
+                    let origin = b.min + (b.max - b.min) * Vec3::new(a.x, a.y, c);
+                    let direction = square_to_uniform_sphere(rng.next_2d());
+                    out.push(RayRecord { origin, t_min: 0.0, direction, t_max: f32::INFINITY });
+                    continue;
+                }
                 let primary = camera.generate_ray((x as f32 + 0.5) / width as f32, (y as f32 + 0.5) / height as f32);
                 if kind == RayKind::Primary {
                     out.push(RayRecord { origin: primary.origin, t_min: 0.0, direction: primary.direction, t_max: f32::INFINITY });
@@ -330,7 +355,7 @@ fn generate_rows(
                             out.push(RayRecord { origin: r.origin, t_min: 0.0, direction: r.direction, t_max });
                         }
                     }
-                    RayKind::Primary => unreachable!(),
+                    RayKind::Primary | RayKind::Random => unreachable!(),
                 }
             }
             out
@@ -341,6 +366,36 @@ fn generate_rows(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Random rays: one per pixel, from inside the box of the bounded objects, unit
+    /// directions spread over the whole sphere, the same set for the same seed; a scene of
+    /// planes alone has no box and is refused.
+    #[test]
+    fn random_rays_fill_the_scene_box_in_every_direction() {
+        let desc = crate::scenes::builtin("tp4-bunny").unwrap();
+        let scene = desc.build(crate::Accel::BvhSah).unwrap();
+        let camera = desc.camera.build(1.5);
+        let rays = generate(&scene, &camera, 40, 30, RayKind::Random, 7).unwrap();
+        assert_eq!(rays.len(), 1200);
+        let b = scene_box(&scene).unwrap();
+        let mut octants = [0; 8];
+        for r in &rays {
+            assert!(r.origin.cmpge(b.min).all() && r.origin.cmple(b.max).all(), "{r:?} outside {b:?}");
+            assert!((r.direction.length() - 1.0).abs() < 1e-5 && r.t_min == 0.0 && r.t_max == f32::INFINITY);
+            let d = r.direction;
+            octants[usize::from(d.x < 0.0) | usize::from(d.y < 0.0) << 1 | usize::from(d.z < 0.0) << 2] += 1;
+        }
+        // About 150 per octant: uniform over the sphere, not a cone.
+        assert!(octants.iter().all(|&n| (100..200).contains(&n)), "{octants:?}");
+        assert_eq!(generate(&scene, &camera, 40, 30, RayKind::Random, 7).unwrap(), rays);
+        assert_ne!(generate(&scene, &camera, 40, 30, RayKind::Random, 8).unwrap(), rays);
+        assert_eq!("random".parse::<RayKind>().unwrap(), RayKind::Random);
+        let mut planes = desc.build(crate::Accel::BvhSah).unwrap();
+        planes.objects.retain(|o| matches!(o.geometry, crate::Geometry::Plane(_)));
+        assert!(!planes.objects.is_empty());
+        let err = generate(&planes, &camera, 4, 4, RayKind::Random, 1).unwrap_err().to_string();
+        assert!(err.contains("random rays") && err.contains("bounded objects"), "{err}");
+    }
 
     #[test]
     fn files_round_trip_and_reject_garbage() {
