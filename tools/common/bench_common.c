@@ -350,7 +350,20 @@ void print_report(const Report *r) {
     printf("obj_load_ms: %.1f\n", r->obj_load_ms);
     printf("build_ms: %.3f\n", r->build_ms);
     printf("build_mtris_per_s: %.3f\n", r->triangles / r->build_ms * 1e-3);
+    printf("memory_bytes: %lld\n", r->memory_bytes);
+    printf("memory_peak_bytes: %lld\n", r->memory_peak_bytes);
+    printf("memory_bytes_per_triangle: %.1f\n", r->triangles ? (double)r->memory_bytes / (double)r->triangles : 0.0);
     printf("trace_ms: %.3f\n", r->trace_ms);
     printf("mrays_per_s: %.3f\n", r->rays ? r->rays / r->trace_ms * 1e-3 : 0.0);
     if (fflush(stdout) != 0) fail("writing the report: %s", strerror(errno));
+}
+
+bool memory_monitor(void *user, ssize_t bytes, bool post) {
+    (void)post;
+    MemoryMonitor *m = user;
+    const long long now = atomic_fetch_add(&m->current, (long long)bytes) + (long long)bytes;
+    long long peak = atomic_load(&m->peak);
+    while (now > peak && !atomic_compare_exchange_weak(&m->peak, &peak, now)) {
+    }
+    return true;
 }

@@ -4,8 +4,11 @@
 #ifndef ISIR_BENCH_COMMON_H
 #define ISIR_BENCH_COMMON_H
 
+#include <stdatomic.h>
+#include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <sys/types.h>
 
 /* One ray record of a ray file: the first 32 bytes of Embree's RTCRay. */
 typedef struct {
@@ -81,7 +84,17 @@ typedef struct {
     const Options *options;
     uint64_t triangles, rays, hits;
     double obj_load_ms, build_ms, trace_ms;
+    long long memory_bytes, memory_peak_bytes; /* Embree's, after and during the last build */
 } Report;
+
+/* What Embree holds, as its device memory monitor reports it (rtcSetDeviceMemoryMonitorFunction):
+ * bytes allocated minus bytes freed, and the most at any time since the last reset. */
+typedef struct {
+    _Atomic long long current, peak;
+} MemoryMonitor;
+
+/* The monitor callback (user = a MemoryMonitor); allows every allocation. */
+bool memory_monitor(void *user, ssize_t bytes, bool post);
 
 void print_report(const Report *r);
 

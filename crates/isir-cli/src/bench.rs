@@ -291,13 +291,13 @@ fn bench_in(
     // One table per engine (the first, Embree 3's, as it has always been); without any, one
     // table of isir's figures alone.
     if engines.is_empty() {
-        print_table(&rounds, &sets, build.stats.triangles, None, dir)?;
+        print_table(&rounds, &sets, (build.stats.triangles, f64::from(build.stats.bytes_per_triangle)), None, dir)?;
     }
     for (i, e) in engines.iter().enumerate() {
         if i > 0 {
             println!();
         }
-        print_table(&rounds, &sets, build.stats.triangles, Some((i, e)), dir)?;
+        print_table(&rounds, &sets, (build.stats.triangles, f64::from(build.stats.bytes_per_triangle)), Some((i, e)), dir)?;
     }
     println!(
         "sah_cost: {:.3}  nodes: {}  bytes_per_triangle: {:.1}",
@@ -330,7 +330,13 @@ type RaySet = (&'static str, RayKind, Vec<isir::rays::RayRecord>, PathBuf);
 
 /// One table: isir's figures, and with `engine` (its index in each round's figures) that
 /// engine's, the per-round ratios and the hit agreement of the last round.
-fn print_table(rounds: &[Round], sets: &[RaySet], triangles: usize, engine: Option<(usize, &Engine)>, dir: &Path) -> anyhow::Result<()> {
+fn print_table(
+    rounds: &[Round],
+    sets: &[RaySet],
+    (triangles, our_bytes_per_tri): (usize, f64),
+    engine: Option<(usize, &Engine)>,
+    dir: &Path,
+) -> anyhow::Result<()> {
     let label = engine.map_or("embree", |(_, e)| e.label);
     let last = rounds.last().expect("at least one round");
     println!("{:<28} {:>12} {:>12} {:>20} {:>14}", "figure", "isir", label, format!("isir/{label}"), "hits agree");
@@ -369,6 +375,12 @@ fn print_table(rounds: &[Round], sets: &[RaySet], triangles: usize, engine: Opti
     let mtris = |ms: &[f64]| ms.iter().map(|&t| triangles / (t * 1e-3) * 1e-6).collect::<Vec<_>>();
     row("build (Mtris/s)", &mtris(&our_build), &mtris(&their_build), Some(speed), "");
     row("build (ms)", &our_build, &their_build, None, "");
+    // Memory of the acceleration structure per triangle (the engine's as its device memory
+    // monitor counts it, the mesh's own arrays excluded on both sides); the ratio is theirs
+    // over ours, so that above 1 means isir better here too.
+    let our_memory = vec![our_bytes_per_tri; rounds.len()];
+    let their_memory: Vec<f64> = theirs(0, "memory_bytes").iter().map(|b| b / triangles).collect();
+    row("memory (B/tri)", &our_memory, &their_memory, Some(|o, t| t / o), "");
     let our_speed = |i: usize| rounds.iter().map(|r| r.ours[i].mrays_per_s()).collect::<Vec<_>>();
     for (i, (set, kind, _, _)) in sets.iter().enumerate() {
         let q = if *kind == RayKind::Shadow { "occluded" } else { "closest" };

@@ -529,6 +529,12 @@ fn bench_compares_with_embree_3_and_embree_4_found_in_the_cache() {
             }
         }
     }
+    // The memory row: isir's bytes per triangle; the stand-ins report no Embree memory.
+    for table in &tables {
+        let line = table.iter().find(|l| l.starts_with("memory (B/tri)")).unwrap_or_else(|| panic!("no memory row in:\n{out}"));
+        let words: Vec<&str> = line["memory (B/tri)".len()..].split_whitespace().collect();
+        assert!(words[0].parse::<f64>().is_ok_and(|b| b > 10.0 && b < 1000.0) && words[1] == "-", "{line}");
+    }
     // Each tool got exactly what the real ones take: four single-ray sets (shadow rays
     // occluded), then the primary rays in stream mode, with the hit files named per engine.
     for (tool, tag) in [(&e3, "embree"), (&e4, "embree4")] {
