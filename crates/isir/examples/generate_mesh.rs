@@ -50,7 +50,7 @@ fn main() {
              property float x\nproperty float y\nproperty float z\nelement face {triangle_count}\n\
              property list uchar uint vertex_indices\nend_header\n"
         )?;
-        let mut put = |p: [f32; 3], w: &mut BufWriter<std::fs::File>| -> std::io::Result<()> {
+        let put = |p: [f32; 3], w: &mut BufWriter<std::fs::File>| -> std::io::Result<()> {
             for c in p {
                 w.write_all(&c.to_le_bytes())?;
             }
@@ -65,7 +65,7 @@ fn main() {
         }
         put(point(PI, 0.0), &mut w)?;
         let ring = |i: u64, j: u64| (1 + (i - 1) * segments + j % segments) as u32;
-        let mut tri = |a: u32, b: u32, c: u32, w: &mut BufWriter<std::fs::File>| -> std::io::Result<()> {
+        let tri = |a: u32, b: u32, c: u32, w: &mut BufWriter<std::fs::File>| -> std::io::Result<()> {
             w.write_all(&[3])?;
             for v in [a, b, c] {
                 w.write_all(&v.to_le_bytes())?;
