@@ -68,7 +68,7 @@ pub(super) fn direct_lighting(
     li
 }
 
-/// A quad light's average over its `n` samples: eight samples at a time, set up together
+/// A quad light's average over its `n` samples: sixteen samples at a time, set up together
 /// ([`QuadBatch`]), then traced and summed in order (the same sum as one sample at a time).
 /// PERF: out of line, so that point lights keep a small `direct_lighting` (inlined, it made
 /// point-light scenes 20% slower).

@@ -146,7 +146,7 @@ fn next_event(
             *acc += f * ls.radiance * ls.direction.dot(hit.normal).abs() * w;
         };
         if let LightSampler::Quad { .. } = light_sampler {
-            // Eight samples set up at a time (`QuadBatch`), then used in order.
+            // Sixteen samples set up at a time (`QuadBatch`), then used in order.
             let mut xi = [Vec2::ZERO; BATCH];
             for first in (0..n).step_by(BATCH) {
                 let count = (n - first).min(BATCH as u32) as usize;

@@ -1,9 +1,10 @@
-//! A quad light's samples seen from one hit, eight at a time, as arrays: the light
+//! A quad light's samples seen from one hit, sixteen at a time, as arrays: the light
 //! points, directions, pdfs and radiances of [`LightSampler::sample`] and the shadow rays
 //! of [`ShadowRays::to`], bit for bit, in straight-line loops the compiler turns into SIMD
 //! (square roots and divisions eight at a time with AVX2, four with SSE2; no branches).
-//! Sixteen lanes with AVX-512 measured no faster (conference room, 8 light samples: 5.8 s
-//! with 8 AVX2 lanes or 16 scalar, 6.4 s with 16 AVX-512 lanes).
+//! Sixteen lanes, so that 16 light samples make one packet of shadow rays; compiled for
+//! AVX2 (two vectors), as the same loops compiled for AVX-512 measured slower (conference
+//! room, 8 light samples: 5.8 s with AVX2 lanes, 6.4 s with AVX-512 ones).
 //!
 //! PERF: one sample at a time, setting up a sample and its shadow ray cost about as much
 //! as tracing the ray (~360 instructions, measured with callgrind on the conference room).
