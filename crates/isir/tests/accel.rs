@@ -280,3 +280,49 @@ fn negative_t_min_finds_hits_behind_the_origin_on_every_path() {
         }
     }
 }
+
+/// The box test's FMA form rounds `origin · inv` once, an error absolute in the origin's
+/// magnitude: short rays far from the world origin, aimed at triangles' edges (where a
+/// triangle touches its box), must still find them on every SIMD level and in packets.
+/// The first ray is a conference-room shadow ray that leaked light through a wall.
+#[test]
+fn short_rays_far_from_the_origin_find_triangles_at_their_box_edges() {
+    use isir::math::ray::RaySegment;
+    let mut mesh = isir::scenes::load_builtin_model("conference").unwrap().mesh;
+    mesh.build_accel(Accel::BvhSah);
+    let bits = |x: [u32; 3]| Vec3::from_array(x.map(f32::from_bits));
+    let mut rays = vec![(
+        Ray::new(bits([0x44cea7ed, 0x438eda30, 0xc2708f50]), bits([0xbf6ef1f3, 0x3eb390e4, 0xbd9bff67])),
+        f32::from_bits(0x4460044a),
+    )];
+    let mut rng = Sampler::from_seed(12);
+    let n = mesh.triangles.len();
+    while rays.len() < 3000 {
+        let [a, b, c] = mesh.triangle_vertices(((rng.next_f32() * n as f32) as usize % n) as u32);
+        // A point on an edge, a little inside or outside, from 2 to 60 units away.
+        let (s, inset) = (rng.next_f32(), (rng.next_f32() - 0.5) * 1e-5);
+        let p = a + (b - a) * s + (c - a) * inset;
+        let d = Vec3::new(rng.next_f32() - 0.5, rng.next_f32() - 0.5, rng.next_f32() - 0.5).normalize_or(Vec3::X);
+        let len = 2.0 + 58.0 * rng.next_f32();
+        rays.push((Ray::new(p - d * len, d), len * 1.5));
+    }
+    let reference: Vec<bool> = rays.iter().map(|(r, t)| mesh.occluded_brute_force(r, 0.0, *t)).collect();
+    assert!(reference[0], "the conference shadow ray is blocked by a wall");
+    let MeshAccel::Wide(w) = mesh.accel() else { panic!("the SAH BVH is the wide BVH") };
+    for level in SimdLevel::available() {
+        let mut w = w.clone();
+        w.set_level(level);
+        for ((r, t), want) in rays.iter().zip(&reference) {
+            assert_eq!(w.occluded(r, 0.0, *t), *want, "{level:?}: any-hit for {r:?} up to {t}");
+            assert_eq!(w.intersect(r, 0.0, *t).is_some(), *want, "{level:?}: closest hit for {r:?} up to {t}");
+        }
+        let segments: Vec<RaySegment> =
+            rays.iter().map(|(r, t)| RaySegment { origin: r.origin, t_min: 0.0, direction: r.direction, t_max: *t }).collect();
+        for (chunk, want) in segments.chunks(16).zip(reference.chunks(16)) {
+            let mask = w.occluded_packet(chunk);
+            for (i, want) in want.iter().enumerate() {
+                assert_eq!(mask & (1 << i) != 0, *want, "{level:?}: packet answer for {:?}", chunk[i]);
+            }
+        }
+    }
+}

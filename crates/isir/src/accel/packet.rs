@@ -117,7 +117,15 @@ impl WideBvh {
         let (ox, oy, oz) = (ld(&a[0]), ld(&a[1]), ld(&a[2]));
         let (dx, dy, dz) = (ld(&a[3]), ld(&a[4]), ld(&a[5]));
         let inv = [ld(&a[6]), ld(&a[7]), ld(&a[8])];
+        // `origin · inv`, moved by its rounding as for single rays (see `RayPre`).
+        let slack = _mm512_set1_ps(crate::accel::wide::FMA_SLACK);
         let oinv = [_mm512_mul_ps(ox, inv[0]), _mm512_mul_ps(oy, inv[1]), _mm512_mul_ps(oz, inv[2])];
+        let mut oinv_near = oinv;
+        let mut oinv_far = oinv;
+        for axis in 0..3 {
+            oinv_near[axis] = _mm512_fmadd_ps(_mm512_abs_ps(oinv[axis]), slack, oinv[axis]);
+            oinv_far[axis] = _mm512_fnmadd_ps(_mm512_abs_ps(oinv[axis]), slack, oinv[axis]);
+        }
         let t_min = ld(&a[9]);
         let mut t_best = ld(&a[10]);
         let mut prim = _mm512_set1_epi32(-1);
@@ -152,8 +160,8 @@ impl WideBvh {
                     let mut far = t_best;
                     for axis in 0..3 {
                         let (nb, fb) = if neg[axis] { (node.hi[axis][c], node.lo[axis][c]) } else { (node.lo[axis][c], node.hi[axis][c]) };
-                        near = _mm512_max_ps(near, _mm512_fmsub_ps(_mm512_set1_ps(nb), inv[axis], oinv[axis]));
-                        far = _mm512_min_ps(far, _mm512_fmsub_ps(_mm512_set1_ps(fb), inv[axis], oinv[axis]));
+                        near = _mm512_max_ps(near, _mm512_fmsub_ps(_mm512_set1_ps(nb), inv[axis], oinv_near[axis]));
+                        far = _mm512_min_ps(far, _mm512_fmsub_ps(_mm512_set1_ps(fb), inv[axis], oinv_far[axis]));
                     }
                     // Widened as in the single-ray test.
                     if nonneg_tmin {

@@ -9,8 +9,16 @@ pub(super) struct RayPre {
     origin: Vec3,
     dir: Vec3,
     inv: Vec3,
-    /// `origin · inv`, for the FMA form of the slab test.
-    org_inv: Vec3,
+    /// `origin · inv`, for the FMA form of the slab test `b · inv - origin · inv`, moved
+    /// by the rounding of that product: up (`org_inv_near`) so near distances only come out
+    /// shorter, down (`org_inv_far`) so far ones only come out longer. That rounding is
+    /// absolute, half an ULP of `origin · inv`, many ULPs of a short distance far from the
+    /// world origin: without it a shadow ray 1,600 units from the origin missed a wall 20
+    /// units away, at its box's edge, that the scalar test `(b - origin) · inv` finds.
+    /// Moved per axis, by four times the bound (so the move's own rounding is covered):
+    /// a near-parallel axis's huge product moves only its own, huge, distances.
+    org_inv_near: Vec3,
+    org_inv_far: Vec3,
     /// Per axis, whether the direction is negative (then the near plane is `hi`).
     neg: [bool; 3],
     /// Per axis, the byte offsets in a [`Node8`] of the near and the far plane (after
@@ -31,9 +39,15 @@ impl RayPre {
                 (lo, hi)
             }
         });
-        Self { origin: ray.origin, dir: ray.direction, inv, org_inv: ray.origin * inv, neg, near_far }
+        let org_inv = ray.origin * inv;
+        let slack = org_inv.abs() * FMA_SLACK;
+        Self { origin: ray.origin, dir: ray.direction, inv, org_inv_near: org_inv + slack, org_inv_far: org_inv - slack, neg, near_far }
     }
 }
+
+/// The relative rounding of `origin · inv` that the FMA form of the slab test makes up
+/// for, four times its bound of 2^-24 (see [`RayPre`]).
+pub(crate) const FMA_SLACK: f32 = 1.0 / 4_194_304.0;
 
 /// The inverse direction of the slab tests and the ray's octant (per axis, whether the
 /// near plane is the box's upper one). Zero components become ±1e-30 first, keeping their
@@ -136,9 +150,9 @@ pub(super) unsafe fn box_test_avx2(node: &Node8, pre: &RayPre, t_min: f32, t_max
             let (n, f) = pre.near_far[axis];
             debug_assert!([n, f].iter().all(|&o| o % 32 == 0 && o + 32 <= std::mem::offset_of!(Node8, child)));
             let inv = _mm256_set1_ps(pre.inv[axis]);
-            let oi = _mm256_set1_ps(pre.org_inv[axis]);
-            let tn = _mm256_fmsub_ps(_mm256_load_ps(base.add(n).cast()), inv, oi);
-            let tf = _mm256_fmsub_ps(_mm256_load_ps(base.add(f).cast()), inv, oi);
+            let (oin, oif) = (_mm256_set1_ps(pre.org_inv_near[axis]), _mm256_set1_ps(pre.org_inv_far[axis]));
+            let tn = _mm256_fmsub_ps(_mm256_load_ps(base.add(n).cast()), inv, oin);
+            let tf = _mm256_fmsub_ps(_mm256_load_ps(base.add(f).cast()), inv, oif);
             near = _mm256_max_ps(near, tn);
             far = _mm256_min_ps(far, tf);
         }

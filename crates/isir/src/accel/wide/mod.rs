@@ -35,7 +35,7 @@ use crate::accel::{MeshHit, Triangles};
 use crate::math::ray::Ray;
 use collapse::{Collapse, Plan};
 use glam::Vec3;
-pub(crate) use kernels::slab_inverse;
+pub(crate) use kernels::{slab_inverse, FMA_SLACK};
 
 /// No child in this lane.
 pub(crate) const EMPTY: u32 = u32::MAX;
