@@ -9,6 +9,7 @@
 //! surface interaction is built above, in [`crate::geometry`].
 
 pub mod bvh;
+mod memory;
 pub mod packet;
 pub mod triangle;
 pub mod wide;

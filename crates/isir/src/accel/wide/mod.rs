@@ -222,7 +222,8 @@ impl WideBvh {
         // conversion: 9.5 -> 6.5 ms on the conference room. Collapsing the root's
         // subtrees in parallel was slower (one holds 70% of the nodes, and joining the
         // parts copies them).
-        let mut c = Collapse { nodes: Vec::with_capacity(bvh.nodes.len() / 4 + 1), ..Collapse::default() };
+        // On huge pages, as Embree's trees (see `accel::memory`).
+        let mut c = Collapse { nodes: crate::accel::memory::vec_on_huge_pages(bvh.nodes.len() / 4 + 1), ..Collapse::default() };
         c.blocks.reserve(bvh.prim_indices.len() / 3 + 1);
         let plan = Plan::new(bvh);
         w.sah_cost = plan.cost / bvh.nodes[0].aabb().half_area().max(f32::MIN_POSITIVE);
@@ -230,7 +231,8 @@ impl WideBvh {
         assert!(c.depth * 7 + 8 <= STACK_SIZE, "wide BVH too deep ({}) for the traversal stack", c.depth);
         w.depth = c.depth;
         w.nodes = c.nodes;
-        w.tris = c.blocks.par_iter().with_min_len(1024).map(|prims| Tri4::new(mesh, prims, watertight)).collect();
+        w.tris = crate::accel::memory::vec_on_huge_pages(c.blocks.len());
+        c.blocks.par_iter().with_min_len(1024).map(|prims| Tri4::new(mesh, prims, watertight)).collect_into_vec(&mut w.tris);
         w
     }
 

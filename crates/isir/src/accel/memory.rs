@@ -1,0 +1,86 @@
+//! Large arrays of the acceleration structures on huge pages.
+//!
+//! A tree of ten million triangles is half a gigabyte read at random: with 4 KB pages
+//! nearly every node a ray visits also misses the TLB and waits for a page walk. Linux
+//! backs memory with 2 MB pages where a program asks for them (`madvise(MADV_HUGEPAGE)`
+//! when `transparent_hugepage` is `madvise`, the common default), as Embree does for its
+//! trees. Only a hint: where the kernel has none to give, nothing changes.
+
+/// Arrays smaller than this stay as they are (a few huge pages at most; the TLB covers them).
+const HUGE_FROM: usize = 8 << 20;
+
+/// A vector with room for `capacity` elements whose memory is advised to be backed by huge
+/// pages, before anything is written to it (pages are chosen when first touched).
+pub(crate) fn vec_on_huge_pages<T>(capacity: usize) -> Vec<T> {
+    let v: Vec<T> = Vec::with_capacity(capacity);
+    advise_huge_pages(v.as_ptr().cast(), v.capacity() * std::mem::size_of::<T>());
+    v
+}
+
+#[cfg(target_os = "linux")]
+fn advise_huge_pages(ptr: *const u8, bytes: usize) {
+    const PAGE: usize = 4096;
+    if bytes < HUGE_FROM {
+        return;
+    }
+    // The whole pages inside the allocation.
+    let start = (ptr as usize).next_multiple_of(PAGE);
+    let end = (ptr as usize + bytes) / PAGE * PAGE;
+    if end > start {
+        // SAFETY: the range lies inside an allocation this process owns (the vector's
+        // buffer), and MADV_HUGEPAGE only changes how the kernel backs it, never its
+        // contents. A failure (an old kernel, huge pages disabled) leaves it as it was.
+        unsafe { libc::madvise(start as *mut libc::c_void, end - start, libc::MADV_HUGEPAGE) };
+    }
+}
+
+#[cfg(not(target_os = "linux"))]
+fn advise_huge_pages(_ptr: *const u8, _bytes: usize) {}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn vectors_on_huge_pages_are_ordinary_vectors() {
+        for n in [0, 1, 1000, HUGE_FROM / 4 + 3] {
+            let mut v: Vec<u32> = vec_on_huge_pages(n);
+            assert!(v.capacity() >= n);
+            v.extend((0..n as u32).rev());
+            assert_eq!(v.len(), n);
+            assert!(v.iter().enumerate().all(|(i, &x)| x as usize == n - 1 - i));
+        }
+    }
+
+    /// The kernel takes the advice: the mapping holding a large vector may be backed by
+    /// huge pages whenever transparent huge pages are not off (`[never]`).
+    #[cfg(target_os = "linux")]
+    #[test]
+    fn large_vectors_are_eligible_for_huge_pages() {
+        let Ok(mode) = std::fs::read_to_string("/sys/kernel/mm/transparent_hugepage/enabled") else {
+            panic!("a Linux kernel without transparent huge pages: remove this test for it");
+        };
+        let v: Vec<u8> = vec_on_huge_pages(64 << 20);
+        let addr = v.as_ptr() as usize + (32 << 20);
+        let smaps = std::fs::read_to_string("/proc/self/smaps").unwrap();
+        let mut eligible = None;
+        let mut inside = false;
+        for line in smaps.lines() {
+            if let Some((range, _)) = line.split_once(' ') {
+                if let Some((lo, hi)) = range.split_once('-') {
+                    if let (Ok(lo), Ok(hi)) = (usize::from_str_radix(lo, 16), usize::from_str_radix(hi, 16)) {
+                        inside = (lo..hi).contains(&addr);
+                        continue;
+                    }
+                }
+            }
+            if inside {
+                if let Some(flag) = line.strip_prefix("THPeligible:") {
+                    eligible = Some(flag.trim() == "1");
+                }
+            }
+        }
+        let eligible = eligible.expect("the vector's mapping is in /proc/self/smaps with a THPeligible line");
+        assert_eq!(eligible, !mode.contains("[never]"), "transparent_hugepage/enabled: {mode}");
+    }
+}
