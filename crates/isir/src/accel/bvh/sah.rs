@@ -177,21 +177,38 @@ pub(super) fn merge_bins<const NB: usize>(mut a: Bins<NB>, b: &Bins<NB>) -> Bins
     a
 }
 
+/// Nodes from this many records are binned into two sets of bins (see [`bin_prims`]).
+const BIN_TWICE_FROM: usize = 64;
+
 pub(super) fn bin_prims<const NB: usize>(prims: &[PrimRef], binner: &Binner) -> Bins<NB> {
     debug_assert_eq!(binner.count, NB);
+    let add = |bins: &mut Bins<NB>, p: &PrimRef| {
+        let (lo, hi) = (p.lo(), p.hi());
+        let k = binner.bins(p);
+        for axis in 0..3 {
+            let bin = &mut bins[axis][k[axis]];
+            bin.lo = bin.lo.min(lo);
+            bin.hi = bin.hi.max(hi);
+            bin.count += 1;
+        }
+    };
     let fill = |chunk: &[PrimRef]| {
         let mut bins = [[EMPTY_BIN; NB]; 3];
-        for p in chunk {
-            let (lo, hi) = (p.lo(), p.hi());
-            let k = binner.bins(p);
-            for axis in 0..3 {
-                let bin = &mut bins[axis][k[axis]];
-                bin.lo = bin.lo.min(lo);
-                bin.hi = bin.hi.max(hi);
-                bin.count += 1;
-            }
+        if chunk.len() < BIN_TWICE_FROM {
+            chunk.iter().for_each(|p| add(&mut bins, p));
+            return bins;
         }
-        bins
+        // PERF: every other record into a second set of bins, merged at the end: two
+        // records in one bin (neighbours often are) no longer wait for each other's
+        // store. Min, max and counts do not depend on the order: the same bins.
+        let mut odd = [[EMPTY_BIN; NB]; 3];
+        let mut pairs = chunk.chunks_exact(2);
+        for pair in &mut pairs {
+            add(&mut bins, &pair[0]);
+            add(&mut odd, &pair[1]);
+        }
+        pairs.remainder().iter().for_each(|p| add(&mut bins, p));
+        merge_bins(bins, &odd)
     };
     if prims.len() < PARALLEL_BINNING {
         fill(prims)

@@ -146,3 +146,35 @@ fn traversal_finds_the_closest_box_hit() {
         }
     }
 }
+
+/// Binning into two sets of bins (every other record) gives the bins of one record at a
+/// time: boxes, counts, and so the split, whatever the count's parity.
+#[test]
+fn bins_of_pairs_are_the_bins_of_one_record_at_a_time() {
+    for n in [1, 63, 64, 65, 1000, 1001] {
+        let boxes = random_boxes(n, n as u64);
+        let prims: Vec<PrimRef> =
+            boxes.iter().enumerate().map(|(i, b)| PrimRef { min: b.min.into(), index: i as u32, max: b.max.into(), _pad: 0 }).collect();
+        let bounds = Bounds::of(&prims);
+        let binner = Binner::new(&bounds, 256); // 32 bins
+        let got = bin_prims::<32>(&prims, &binner);
+        let mut want = [[EMPTY_BIN; 32]; 3];
+        for p in &prims {
+            let k = binner.bins(p);
+            for axis in 0..3 {
+                let bin = &mut want[axis][k[axis]];
+                bin.lo = bin.lo.min(p.lo());
+                bin.hi = bin.hi.max(p.hi());
+                bin.count += 1;
+            }
+        }
+        for axis in 0..3 {
+            for k in 0..32 {
+                let (g, w) = (&got[axis][k], &want[axis][k]);
+                assert_eq!((g.lo, g.hi, g.count), (w.lo, w.hi, w.count), "n {n}, axis {axis}, bin {k}");
+            }
+        }
+        assert_eq!(got[0].iter().map(|b| b.count as usize).sum::<usize>(), n);
+        assert_eq!(best_split(&got).map(|s| (s.0, s.1)), best_split(&want).map(|s| (s.0, s.1)));
+    }
+}
