@@ -230,6 +230,44 @@ impl ShadowRays {
     }
 }
 
+/// The test of a shape's `hit_lanes` against its `intersect`, lane by lane: random rays
+/// from inside, outside and on the surface of a shape near `(0, 0, 3)`, grazing ones, zero
+/// and NaN directions, empty intervals, 1 to [`LANES`] rays per call; both answers must
+/// occur often. Shared by [`crate::geometry::Sphere`] and [`crate::geometry::Plane`].
+#[cfg(test)]
+pub(crate) fn check_hit_lanes(hit_lanes: impl Fn(&RayLanes) -> u32, intersects: impl Fn(&Ray, f32, f32) -> bool) {
+    let mut rng = crate::math::sampling::Sampler::from_seed(9);
+    let (mut hits, mut total) = (0, 0);
+    for round in 0..4000 {
+        let mut r = || rng.next_f32() * 6.0 - 3.0;
+        let mut rays = Vec::new();
+        for k in 0..LANES {
+            let origin = Vec3::new(r(), r(), r() + 3.0);
+            let mut direction = Vec3::new(r(), r(), r());
+            let (mut t_min, mut t_max) = (0.0, if k % 3 == 0 { f32::INFINITY } else { r().abs() * 4.0 });
+            match (round + k) % 11 {
+                0 => direction = Vec3::ZERO,
+                1 => direction.x = f32::NAN,
+                2 => t_max = 0.0,
+                3 => t_min = -1.0,
+                _ => {}
+            }
+            rays.push(RaySegment { origin, t_min, direction, t_max });
+        }
+        let n = 1 + round % LANES;
+        let mask = hit_lanes(&RayLanes::new(&rays[..n]));
+        for (k, ray) in rays[..n].iter().enumerate() {
+            let expected = intersects(&ray.ray(), ray.t_min, ray.t_max);
+            assert_eq!(mask & (1 << k) != 0, expected, "{ray:?}");
+            hits += usize::from(expected);
+            total += 1;
+        }
+        // Unused lanes (zero rays) hit nothing.
+        assert_eq!(mask >> n, 0);
+    }
+    assert!(hits > total / 10 && hits < total * 9 / 10, "{hits} of {total}");
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
