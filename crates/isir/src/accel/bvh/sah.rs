@@ -21,6 +21,12 @@ pub(super) struct PrimRef {
 }
 
 impl PrimRef {
+    /// The record of primitive `index` with box `b`.
+    #[inline(always)]
+    pub(super) fn new(index: u32, b: &Aabb) -> Self {
+        PrimRef { min: b.min.into(), index, max: b.max.into(), _pad: 0 }
+    }
+
     #[inline(always)]
     pub(super) fn lo(&self) -> Vec3A {
         Vec3A::from_array(self.min)
@@ -177,21 +183,25 @@ pub(super) fn merge_bins<const NB: usize>(mut a: Bins<NB>, b: &Bins<NB>) -> Bins
     a
 }
 
+/// Add one record to its bin on each axis.
+#[inline(always)]
+pub(super) fn bin_record<const NB: usize>(bins: &mut Bins<NB>, binner: &Binner, p: &PrimRef) {
+    let (lo, hi) = (p.lo(), p.hi());
+    let k = binner.bins(p);
+    for axis in 0..3 {
+        let bin = &mut bins[axis][k[axis]];
+        bin.lo = bin.lo.min(lo);
+        bin.hi = bin.hi.max(hi);
+        bin.count += 1;
+    }
+}
+
 /// Nodes from this many records are binned into two sets of bins (see [`bin_prims`]).
 const BIN_TWICE_FROM: usize = 64;
 
 pub(super) fn bin_prims<const NB: usize>(prims: &[PrimRef], binner: &Binner) -> Bins<NB> {
     debug_assert_eq!(binner.count, NB);
-    let add = |bins: &mut Bins<NB>, p: &PrimRef| {
-        let (lo, hi) = (p.lo(), p.hi());
-        let k = binner.bins(p);
-        for axis in 0..3 {
-            let bin = &mut bins[axis][k[axis]];
-            bin.lo = bin.lo.min(lo);
-            bin.hi = bin.hi.max(hi);
-            bin.count += 1;
-        }
-    };
+    let add = |bins: &mut Bins<NB>, p: &PrimRef| bin_record(bins, binner, p);
     let fill = |chunk: &[PrimRef]| {
         let mut bins = [[EMPTY_BIN; NB]; 3];
         if chunk.len() < BIN_TWICE_FROM {
@@ -410,13 +420,7 @@ pub(super) fn build_sah(indices: &[u32], box_of: impl Fn(u32) -> Aabb + Sync) ->
     use rayon::prelude::*;
     // The two large arrays on huge pages: fewer page faults while they fill.
     let mut prims: Vec<PrimRef> = crate::accel::memory::vec_on_huge_pages(indices.len());
-    indices
-        .par_iter()
-        .map(|&i| {
-            let b = box_of(i);
-            PrimRef { min: b.min.into(), index: i, max: b.max.into(), _pad: 0 }
-        })
-        .collect_into_vec(&mut prims);
+    indices.par_iter().map(|&i| PrimRef::new(i, &box_of(i))).collect_into_vec(&mut prims);
     let bounds = Bounds::of(&prims);
     let top = build_sah_parallel(&mut prims, &bounds, 0, 0);
     let mut nodes = crate::accel::memory::vec_on_huge_pages(top.node_count());

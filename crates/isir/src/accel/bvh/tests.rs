@@ -118,8 +118,7 @@ fn parallel_top_flattens_to_the_sequential_layout() {
     let boxes = random_boxes(50_000, 13);
     let indices: Vec<u32> = (0..boxes.len() as u32).collect();
     let (nodes, prims) = build_sah(&indices, |i| boxes[i as usize]);
-    let mut refs: Vec<PrimRef> =
-        boxes.iter().enumerate().map(|(i, b)| PrimRef { min: b.min.into(), index: i as u32, max: b.max.into(), _pad: 0 }).collect();
+    let mut refs: Vec<PrimRef> = boxes.iter().enumerate().map(|(i, b)| PrimRef::new(i as u32, b)).collect();
     let bounds = Bounds::of(&refs);
     let mut seq = vec![BvhNode::default()];
     build_sah_into(&mut seq, 0, &mut refs, &bounds, 0, 0);
@@ -153,21 +152,12 @@ fn traversal_finds_the_closest_box_hit() {
 fn bins_of_pairs_are_the_bins_of_one_record_at_a_time() {
     for n in [1, 63, 64, 65, 1000, 1001] {
         let boxes = random_boxes(n, n as u64);
-        let prims: Vec<PrimRef> =
-            boxes.iter().enumerate().map(|(i, b)| PrimRef { min: b.min.into(), index: i as u32, max: b.max.into(), _pad: 0 }).collect();
+        let prims: Vec<PrimRef> = boxes.iter().enumerate().map(|(i, b)| PrimRef::new(i as u32, b)).collect();
         let bounds = Bounds::of(&prims);
         let binner = Binner::new(&bounds, 256); // 32 bins
         let got = bin_prims::<32>(&prims, &binner);
         let mut want = [[EMPTY_BIN; 32]; 3];
-        for p in &prims {
-            let k = binner.bins(p);
-            for axis in 0..3 {
-                let bin = &mut want[axis][k[axis]];
-                bin.lo = bin.lo.min(p.lo());
-                bin.hi = bin.hi.max(p.hi());
-                bin.count += 1;
-            }
-        }
+        prims.iter().for_each(|p| bin_record(&mut want, &binner, p));
         for axis in 0..3 {
             for k in 0..32 {
                 let (g, w) = (&got[axis][k], &want[axis][k]);
