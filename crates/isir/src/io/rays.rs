@@ -3,6 +3,7 @@
 
 use crate::camera::Camera;
 use crate::error::{Error, Result};
+use crate::math::aabb::Aabb;
 use crate::math::ray::RaySegment;
 use crate::math::sampling::{pixel_rng, square_to_cosine_hemisphere, square_to_uniform_sphere};
 use crate::scene::Scene;
@@ -302,11 +303,9 @@ fn check_kind(scene: &Scene, kind: RayKind) -> Result<()> {
 }
 
 /// The box of the scene's bounded objects (planes have none), if it is not empty.
-fn scene_box(scene: &Scene) -> Option<crate::math::aabb::Aabb> {
-    let b = (0..scene.objects.len())
-        .filter_map(|i| scene.object_bounds(i))
-        .fold(crate::math::aabb::Aabb::EMPTY, |b: crate::math::aabb::Aabb, o| b.union(&o));
-    (!b.is_empty() && b.min.is_finite() && b.max.is_finite()).then_some(b)
+fn scene_box(scene: &Scene) -> Option<Aabb> {
+    let b = (0..scene.objects.len()).filter_map(|i| scene.object_bounds(i)).fold(Aabb::EMPTY, |b, o| b.union(&o));
+    b.is_finite_nonempty().then_some(b)
 }
 
 /// The rays of the rows `rows` of the set, row by row from the top-left, in parallel.

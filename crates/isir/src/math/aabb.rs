@@ -58,6 +58,13 @@ impl Aabb {
         !(self.min.x <= self.max.x && self.min.y <= self.max.y && self.min.z <= self.max.z)
     }
 
+    /// True when the box holds something and its corners are finite: a box a BVH can use.
+    #[inline]
+    #[must_use]
+    pub fn is_finite_nonempty(&self) -> bool {
+        !self.is_empty() && self.min.is_finite() && self.max.is_finite()
+    }
+
     /// The centre of the box.
     #[inline]
     #[must_use]

@@ -238,7 +238,7 @@ impl Scene {
             Geometry::Implicit(s) => s.bounds(),
             Geometry::Instance(m) => m.bounds(),
         };
-        (!b.is_empty() && b.min.is_finite() && b.max.is_finite()).then_some(b)
+        b.is_finite_nonempty().then_some(b)
     }
 
     /// Build the top-level BVH over the objects' world boxes (SAH), the unbounded ones

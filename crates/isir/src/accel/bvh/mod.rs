@@ -127,12 +127,7 @@ impl Bvh {
     /// (degenerate input) are left out, so traversal never reports them.
     #[must_use]
     pub fn build(boxes: &[Aabb], quality: BvhQuality) -> Bvh {
-        let mut indices: Vec<u32> = (0..boxes.len() as u32)
-            .filter(|&i| {
-                let b = &boxes[i as usize];
-                !b.is_empty() && b.min.is_finite() && b.max.is_finite()
-            })
-            .collect();
+        let mut indices: Vec<u32> = (0..boxes.len() as u32).filter(|&i| boxes[i as usize].is_finite_nonempty()).collect();
         if indices.is_empty() {
             return Bvh::default();
         }
