@@ -367,3 +367,14 @@ bool memory_monitor(void *user, ssize_t bytes, bool post) {
     }
     return true;
 }
+
+long long memory_mark(MemoryMonitor *m) {
+    const long long now = atomic_load(&m->current);
+    atomic_store(&m->peak, now);
+    return now;
+}
+
+void memory_since(MemoryMonitor *m, long long mark, long long *bytes, long long *peak) {
+    *bytes = atomic_load(&m->current) - mark;
+    *peak = atomic_load(&m->peak) - mark;
+}

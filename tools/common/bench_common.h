@@ -96,6 +96,12 @@ typedef struct {
 /* The monitor callback (user = a MemoryMonitor); allows every allocation. */
 bool memory_monitor(void *user, ssize_t bytes, bool post);
 
+/* Before a build: restart the peak from what is held now, and return that. */
+long long memory_mark(MemoryMonitor *m);
+
+/* After it: what the build added (*bytes), and the most it held at once (*peak), above `mark`. */
+void memory_since(MemoryMonitor *m, long long mark, long long *bytes, long long *peak);
+
 void print_report(const Report *r);
 
 #endif

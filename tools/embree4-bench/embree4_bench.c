@@ -180,15 +180,13 @@ int main(int argc, char **argv) {
     long long memory_bytes = 0, memory_peak_bytes = 0;
     for (int r = 0; r < (o.repeat < 3 ? o.repeat : 3); r++) {
         if (scene) rtcReleaseScene(scene);
-        const long long before = atomic_load(&memory.current);
-        atomic_store(&memory.peak, before);
+        const long long before = memory_mark(&memory);
         const double b0 = now_ms();
         scene = build(device, &mesh, o.quality);
         const double b = now_ms() - b0;
         if (b < build_ms) build_ms = b;
         /* What the built scene holds (the mesh's arrays are shared, not Embree's). */
-        memory_bytes = atomic_load(&memory.current) - before;
-        memory_peak_bytes = atomic_load(&memory.peak) - before;
+        memory_since(&memory, before, &memory_bytes, &memory_peak_bytes);
     }
 
     /* Traces: the best of repeat. */
