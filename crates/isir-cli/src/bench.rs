@@ -290,14 +290,15 @@ fn bench_in(
     );
     // One table per engine (the first, Embree 3's, as it has always been); without any, one
     // table of isir's figures alone.
+    let size = (build.stats.triangles, f64::from(build.stats.bytes_per_triangle));
     if engines.is_empty() {
-        print_table(&rounds, &sets, (build.stats.triangles, f64::from(build.stats.bytes_per_triangle)), None, dir)?;
+        print_table(&rounds, &sets, size, None, dir)?;
     }
     for (i, e) in engines.iter().enumerate() {
         if i > 0 {
             println!();
         }
-        print_table(&rounds, &sets, (build.stats.triangles, f64::from(build.stats.bytes_per_triangle)), Some((i, e)), dir)?;
+        print_table(&rounds, &sets, size, Some((i, e)), dir)?;
     }
     println!(
         "sah_cost: {:.3}  nodes: {}  bytes_per_triangle: {:.1}",
