@@ -5,7 +5,7 @@
 //! `(sx, sy) ∈ [0,1]²` with row 0 at the top. Looking down +z from (0,0,-6), world +x is on
 //! the **left** of the image, as in the course.
 
-use crate::math::ray::Ray;
+use crate::math::ray::{Ray, RayLanes, LANES};
 use glam::Vec3;
 
 /// A perspective camera with focal distance 1.
@@ -51,6 +51,34 @@ impl Camera {
         let direction = self.to_top_left + sx * self.viewport_u - sy * self.viewport_v;
         Ray::new(self.position, direction.normalize())
     }
+
+    /// The rays of [`Camera::generate_ray`] through the screen points `(sx[k], sy[k])`,
+    /// bit for bit, computed as arrays in one vectorised loop, into the lanes of `rays`
+    /// (interval `[0, ∞)`); lanes from `sx.len()` on get zero rays, which meet nothing.
+    ///
+    /// # Panics
+    /// If `sx` and `sy` differ in length or hold more than [`LANES`] points.
+    #[allow(clippy::needless_range_loop)] // one index into many arrays: the loop vectorises
+    pub fn generate_rays(&self, sx: &[f32], sy: &[f32], rays: &mut RayLanes) {
+        assert!(sx.len() == sy.len() && sx.len() <= LANES);
+        let (mut x, mut y) = ([0.0; LANES], [0.0; LANES]);
+        x[..sx.len()].copy_from_slice(sx);
+        y[..sy.len()].copy_from_slice(sy);
+        let (c, u, v) = (self.to_top_left, self.viewport_u, self.viewport_v);
+        // The operations of `to_top_left + sx·u − sy·v` and `Vec3::normalize` (times the
+        // reciprocal of the length), in their order.
+        for k in 0..LANES {
+            let d = [c.x + x[k] * u.x - y[k] * v.x, c.y + x[k] * u.y - y[k] * v.y, c.z + x[k] * u.z - y[k] * v.z];
+            let r = 1.0 / (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+            let live = k < sx.len();
+            for a in 0..3 {
+                rays.o[a][k] = if live { self.position[a] } else { 0.0 };
+                rays.d[a][k] = if live { d[a] * r } else { 0.0 };
+            }
+            rays.t_min[k] = 0.0;
+            rays.t_max[k] = f32::INFINITY;
+        }
+    }
 }
 
 #[cfg(test)]
@@ -68,6 +96,35 @@ mod tests {
         assert!(top.direction.y > 0.0, "row 0 is the top");
         // Half the vertical field of view: 30 degrees.
         assert!((top.direction.y.atan2(top.direction.z).to_degrees() - 30.0).abs() < 1e-3);
+    }
+
+    /// The lanes hold the rays of `generate_ray`, bit for bit, and zero rays after them.
+    #[test]
+    fn generated_lanes_are_the_rays_of_generate_ray() {
+        let mut rng = crate::math::sampling::Sampler::from_seed(5);
+        for (i, far) in [0.0f32, 3.0, 1e4, 1e7].into_iter().enumerate() {
+            let p = Vec3::new(far, -far * 0.5, 2.0 - far);
+            let cam = Camera::new(p, p + Vec3::new(0.3, -0.2, 1.0), Vec3::Y, 30.0 + 20.0 * i as f32, 1.5);
+            for n in 0..=LANES {
+                let sx: Vec<f32> = (0..n).map(|_| rng.next_f32()).collect();
+                let sy: Vec<f32> = (0..n).map(|_| rng.next_f32()).collect();
+                let mut lanes = RayLanes::new(&[]);
+                cam.generate_rays(&sx, &sy, &mut lanes);
+                for k in 0..LANES {
+                    let got = Ray::new(
+                        Vec3::new(lanes.o[0][k], lanes.o[1][k], lanes.o[2][k]),
+                        Vec3::new(lanes.d[0][k], lanes.d[1][k], lanes.d[2][k]),
+                    );
+                    if k < n {
+                        let want = cam.generate_ray(sx[k], sy[k]);
+                        assert_eq!(got.origin.to_array().map(f32::to_bits), want.origin.to_array().map(f32::to_bits));
+                        assert_eq!(got.direction.to_array().map(f32::to_bits), want.direction.to_array().map(f32::to_bits), "{far} {k}");
+                    } else {
+                        assert!(!got.is_valid());
+                    }
+                }
+            }
+        }
     }
 
     #[test]

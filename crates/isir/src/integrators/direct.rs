@@ -74,7 +74,7 @@ pub(super) fn direct_lighting(
 /// point-light scenes 20% slower).
 #[inline(never)]
 #[allow(clippy::too_many_arguments)]
-fn quad_light(
+pub(super) fn quad_light(
     scene: &Scene,
     ray: &Ray,
     hit: &Hit,

@@ -8,6 +8,7 @@
 //!   `eval` / `pdf` / `sample` contract ([`crate::materials`]).
 
 mod direct;
+mod lanes;
 mod path;
 mod ray_cast;
 mod shadow;

@@ -9,6 +9,7 @@
 //! PERF: one sample at a time, setting up a sample and its shadow ray cost about as much
 //! as tracing the ray (~360 instructions, measured with callgrind on the conference room).
 
+use crate::geometry::Hit;
 use crate::lights::{LightSample, LightSampler};
 use crate::math::color::Color;
 use crate::math::ray::{Ray, RaySegment, ShadowRays};
@@ -167,6 +168,147 @@ impl QuadBatch {
     }
 }
 
+/// A point light seen from up to [`BATCH`] hits (one camera sample each, in lanes): the
+/// samples of [`LightSampler::sample`] and the shadow rays of [`ShadowRays::to`] of every
+/// hit, bit for bit, in straight-line loops the compiler turns into SIMD (AVX2 where the
+/// CPU has it, as [`QuadBatch`]).
+pub(super) struct PointBatch {
+    wi: [[f32; BATCH]; 3],
+    distance: [f32; BATCH],
+    radiance: [[f32; BATCH]; 3],
+    /// `max(wi · n, 0)` with the hit's shading normal.
+    pub(super) cos: [f32; BATCH],
+    origin: [[f32; BATCH]; 3],
+    dir: [[f32; BATCH]; 3],
+    t_max: [f32; BATCH],
+    /// The lane has a hit, the light lights it (`cos > 0`, some radiance) and its shadow
+    /// ray exists.
+    pub(super) live: [bool; BATCH],
+    position: Vec3,
+}
+
+/// The next float above `x` ([`crate::math::ray::next_float_up`]) without a branch.
+#[inline(always)]
+fn float_up(x: f32) -> f32 {
+    let z = if x == 0.0 { 0.0 } else { x };
+    let b = z.to_bits();
+    let up = f32::from_bits(if z >= 0.0 { b.wrapping_add(1) } else { b.wrapping_sub(1) });
+    if x == f32::INFINITY || x.is_nan() {
+        x
+    } else {
+        up
+    }
+}
+
+/// `po` rounded one float further along `side` (as `offset_along`).
+#[inline(always)]
+fn away(po: f32, side: f32) -> f32 {
+    if side > 0.0 {
+        float_up(po)
+    } else if side < 0.0 {
+        -float_up(-po)
+    } else {
+        po
+    }
+}
+
+impl PointBatch {
+    /// The point light `light` (a [`LightSampler::Point`]) seen from the hits `hits`.
+    pub(super) fn new(light: &LightSampler, hits: &[Option<Hit>; BATCH]) -> Self {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU has AVX2, which is all `new_avx2` is compiled for.
+            return unsafe { Self::new_avx2(light, hits) };
+        }
+        Self::new_portable(light, hits)
+    }
+
+    /// [`Self::new`] compiled for AVX2 (no FMA contraction: the same floats).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn new_avx2(light: &LightSampler, hits: &[Option<Hit>; BATCH]) -> Self {
+        Self::new_portable(light, hits)
+    }
+
+    #[inline(always)]
+    #[allow(clippy::needless_range_loop)] // one index into many arrays: the loops vectorise
+    fn new_portable(light: &LightSampler, hits: &[Option<Hit>; BATCH]) -> Self {
+        let LightSampler::Point { position, emitted } = *light else {
+            unreachable!("point lights only");
+        };
+        // The hits as arrays (lanes without one: zeros, and not live).
+        let (mut p, mut ng, mut sn, mut off) = ([[0f32; BATCH]; 3], [[0f32; BATCH]; 3], [[0f32; BATCH]; 3], [0f32; BATCH]);
+        let mut has = [false; BATCH];
+        for j in 0..BATCH {
+            if let Some(h) = &hits[j] {
+                has[j] = true;
+                for k in 0..3 {
+                    (p[k][j], ng[k][j], sn[k][j]) = (h.point[k], h.geometric_normal[k], h.normal[k]);
+                }
+                // `ShadowRays::new`'s offset: |ng| · point_error.
+                let e = h.point_error;
+                off[j] = h.geometric_normal.x.abs() * e.x + h.geometric_normal.y.abs() * e.y + h.geometric_normal.z.abs() * e.z;
+            }
+        }
+        let (y, em) = (position.to_array(), emitted.to_array());
+        let mut b = PointBatch {
+            wi: [[0.0; BATCH]; 3],
+            distance: [0.0; BATCH],
+            radiance: [[0.0; BATCH]; 3],
+            cos: [0.0; BATCH],
+            origin: [[0.0; BATCH]; 3],
+            dir: [[0.0; BATCH]; 3],
+            t_max: [0.0; BATCH],
+            live: [false; BATCH],
+            position,
+        };
+        // The operations of `LightSampler::sample` (point), `Vec3::dot`, `f32::max` and
+        // `ShadowRays::to`, in their order, so every float is the same.
+        for j in 0..BATCH {
+            let to = [y[0] - p[0][j], y[1] - p[1][j], y[2] - p[2][j]];
+            let d = (to[0] * to[0] + to[1] * to[1] + to[2] * to[2]).sqrt();
+            let wi = [to[0] / d, to[1] / d, to[2] / d];
+            let d2 = d * d;
+            let rad = [em[0] / d2, em[1] / d2, em[2] / d2];
+            let cos = (wi[0] * sn[0][j] + wi[1] * sn[1][j] + wi[2] * sn[2][j]).max(0.0);
+            // The shadow ray: the origin offset to the side of the target.
+            let back = to[0] * ng[0][j] + to[1] * ng[1][j] + to[2] * ng[2][j] < 0.0;
+            let mut o = [0f32; 3];
+            for k in 0..3 {
+                let side = if back { -ng[k][j] } else { ng[k][j] };
+                o[k] = away(p[k][j] + off[j] * side, side);
+            }
+            let t = [y[0] - o[0], y[1] - o[1], y[2] - o[2]];
+            let dist = (t[0] * t[0] + t[1] * t[1] + t[2] * t[2]).sqrt();
+            let has_ray = dist > 0.0 && dist.is_finite();
+            let some_radiance = rad[0] != 0.0 || rad[1] != 0.0 || rad[2] != 0.0;
+            for k in 0..3 {
+                b.wi[k][j] = wi[k];
+                b.radiance[k][j] = rad[k];
+                b.origin[k][j] = o[k];
+                b.dir[k][j] = t[k] / dist;
+            }
+            b.distance[j] = d;
+            b.cos[j] = cos;
+            b.t_max[j] = dist * (1.0 - 1e-4);
+            b.live[j] = has[j] && cos != 0.0 && some_radiance && has_ray;
+        }
+        b
+    }
+
+    /// The sample of lane `j`, as [`LightSampler::sample`] returns it.
+    pub(super) fn sample(&self, j: usize) -> LightSample {
+        let at = |a: &[[f32; BATCH]; 3]| Vec3::new(a[0][j], a[1][j], a[2][j]);
+        LightSample { direction: at(&self.wi), distance: self.distance[j], point: self.position, radiance: at(&self.radiance), pdf: 1.0 }
+    }
+
+    /// The shadow ray of lane `j` with its interval, as [`ShadowRays::to`] gives it.
+    pub(super) fn shadow_ray(&self, j: usize) -> RaySegment {
+        let at = |a: &[[f32; BATCH]; 3]| Vec3::new(a[0][j], a[1][j], a[2][j]);
+        RaySegment { origin: at(&self.origin), t_min: 0.0, direction: at(&self.dir), t_max: self.t_max[j] }
+    }
+}
+
 /// A short list of sample indices (at most [`BATCH`]).
 mod arrayvec_lite {
     use super::BATCH;
@@ -246,6 +388,69 @@ mod tests {
                 }
                 if expected {
                     live += 1;
+                } else {
+                    dead += 1;
+                }
+            }
+        }
+        assert!(live > 1000 && dead > 1000, "{live} {dead}");
+    }
+
+    /// A point light's lanes are the samples and shadow rays of one hit at a time, bit for
+    /// bit, on both code paths: hits on either side of their surface, on the light, beside
+    /// it, far from it, lanes without a hit.
+    #[test]
+    fn point_batches_are_the_samples_and_shadow_rays_of_one_at_a_time() {
+        let mut rng = Sampler::from_seed(7);
+        let (mut live, mut dead) = (0, 0);
+        for round in 0..3000 {
+            let mut r = || rng.next_f32() * 8.0 - 4.0;
+            let position = Vec3::new(r(), r(), r());
+            let light = Light::Point { position, color: Vec3::new(1.0, 0.5, 0.0), power: 10.0 }.sampler();
+            let hits: [Option<Hit>; BATCH] = std::array::from_fn(|j| {
+                let ng = Vec3::new(r(), r(), r()).normalize();
+                let point = match (round + j) % 9 {
+                    0 => return None,
+                    1 => position,
+                    2 => position * 1e5,
+                    _ => Vec3::new(r(), r(), r()),
+                };
+                Some(Hit {
+                    t: 1.0,
+                    point,
+                    point_error: Vec3::new(r().abs(), r().abs(), r().abs()) * 1e-6,
+                    normal: (ng + 0.3 * Vec3::new(r(), r(), r())).normalize(),
+                    geometric_normal: ng,
+                    front_face: true,
+                    object: 0,
+                    prim: 0,
+                    u: 0.0,
+                    v: 0.0,
+                    uv: Vec2::ZERO,
+                    material: 0,
+                })
+            });
+            let batch = PointBatch::new(&light, &hits);
+            let portable = PointBatch::new_portable(&light, &hits);
+            for (j, hit) in hits.iter().enumerate() {
+                assert_eq!(batch.live[j], portable.live[j]);
+                let Some(hit) = hit else {
+                    assert!(!batch.live[j]);
+                    continue;
+                };
+                let s = light.sample(hit.point, Vec2::ZERO);
+                let cos = s.direction.dot(hit.normal).max(0.0);
+                let ray = hit.shadow_rays().to(s.point);
+                let expected = cos != 0.0 && s.radiance != Color::ZERO && ray.is_some();
+                assert_eq!(batch.live[j], expected, "{hit:?}");
+                if expected {
+                    live += 1;
+                    let (ray, t_max) = ray.unwrap();
+                    for b in [&batch, &portable] {
+                        assert_eq!(b.sample(j), s);
+                        assert_eq!(b.cos[j].to_bits(), cos.to_bits());
+                        assert_eq!(b.shadow_ray(j), RaySegment { origin: ray.origin, t_min: 0.0, direction: ray.direction, t_max });
+                    }
                 } else {
                     dead += 1;
                 }

@@ -230,18 +230,16 @@ impl ShadowRays {
     }
 }
 
-/// The test of a shape's `hit_lanes` against its `intersect`, lane by lane: random rays
-/// from inside, outside and on the surface of a shape near `(0, 0, 3)`, grazing ones, zero
-/// and NaN directions, empty intervals, 1 to [`LANES`] rays per call; both answers must
-/// occur often. Shared by [`crate::geometry::Sphere`] and [`crate::geometry::Plane`].
+/// Rays for the tests of a shape's lane kernels against its one-ray test: random rays from
+/// inside, outside and on the surface of a shape near `(0, 0, 3)`, grazing ones, zero and
+/// NaN directions, empty and negative intervals, 1 to [`LANES`] per round.
 #[cfg(test)]
-pub(crate) fn check_hit_lanes(hit_lanes: impl Fn(&RayLanes) -> u32, intersects: impl Fn(&Ray, f32, f32) -> bool) {
+fn lane_test_rounds() -> impl Iterator<Item = Vec<RaySegment>> {
     let mut rng = crate::math::sampling::Sampler::from_seed(9);
-    let (mut hits, mut total) = (0, 0);
-    for round in 0..4000 {
+    (0..4000).map(move |round| {
         let mut r = || rng.next_f32() * 6.0 - 3.0;
         let mut rays = Vec::new();
-        for k in 0..LANES {
+        for k in 0..1 + round % LANES {
             let origin = Vec3::new(r(), r(), r() + 3.0);
             let mut direction = Vec3::new(r(), r(), r());
             let (mut t_min, mut t_max) = (0.0, if k % 3 == 0 { f32::INFINITY } else { r().abs() * 4.0 });
@@ -254,16 +252,51 @@ pub(crate) fn check_hit_lanes(hit_lanes: impl Fn(&RayLanes) -> u32, intersects: 
             }
             rays.push(RaySegment { origin, t_min, direction, t_max });
         }
-        let n = 1 + round % LANES;
-        let mask = hit_lanes(&RayLanes::new(&rays[..n]));
-        for (k, ray) in rays[..n].iter().enumerate() {
+        rays
+    })
+}
+
+/// The test of a shape's `hit_lanes` against its `intersect`, lane by lane, on the rays of
+/// [`lane_test_rounds`]; both answers must occur often. Shared by
+/// [`crate::geometry::Sphere`] and [`crate::geometry::Plane`].
+#[cfg(test)]
+pub(crate) fn check_hit_lanes(hit_lanes: impl Fn(&RayLanes) -> u32, intersects: impl Fn(&Ray, f32, f32) -> bool) {
+    let (mut hits, mut total) = (0, 0);
+    for rays in lane_test_rounds() {
+        let mask = hit_lanes(&RayLanes::new(&rays));
+        for (k, ray) in rays.iter().enumerate() {
             let expected = intersects(&ray.ray(), ray.t_min, ray.t_max);
             assert_eq!(mask & (1 << k) != 0, expected, "{ray:?}");
             hits += usize::from(expected);
             total += 1;
         }
         // Unused lanes (zero rays) hit nothing.
-        assert_eq!(mask >> n, 0);
+        assert_eq!(mask >> rays.len(), 0);
+    }
+    assert!(hits > total / 10 && hits < total * 9 / 10, "{hits} of {total}");
+}
+
+/// The test of a shape's `closest_lanes` against its `intersect`, lane by lane, on the rays
+/// of [`lane_test_rounds`]: the same `t`, bit for bit, where `intersect` finds one and the
+/// lane's `t_best` (its `t_max`) unchanged where it does not.
+#[cfg(test)]
+pub(crate) fn check_closest_lanes(
+    closest_lanes: impl Fn(&RayLanes, &mut [f32; LANES]) -> u32,
+    intersect: impl Fn(&Ray, f32, f32) -> Option<f32>,
+) {
+    let (mut hits, mut total) = (0, 0);
+    for rays in lane_test_rounds() {
+        let lanes = RayLanes::new(&rays);
+        let mut t_best = lanes.t_max;
+        let mask = closest_lanes(&lanes, &mut t_best);
+        for (k, ray) in rays.iter().enumerate() {
+            let expected = intersect(&ray.ray(), ray.t_min, ray.t_max);
+            assert_eq!(mask & (1 << k) != 0, expected.is_some(), "{ray:?}");
+            assert_eq!(t_best[k].to_bits(), expected.unwrap_or(ray.t_max).to_bits(), "{ray:?}");
+            hits += usize::from(expected.is_some());
+            total += 1;
+        }
+        assert_eq!(mask >> rays.len(), 0);
     }
     assert!(hits > total / 10 && hits < total * 9 / 10, "{hits} of {total}");
 }

@@ -15,6 +15,10 @@ use crate::math::color::Color;
 use crate::math::ray::{Ray, RayLanes, RaySegment};
 use glam::Vec3;
 
+mod lanes;
+pub(crate) use lanes::lane_ray;
+pub use lanes::{LaneHits, NO_OBJECT};
+
 /// An object: a geometry and the materials of its parts (one, or one per mesh material).
 #[derive(Clone, Debug)]
 pub struct Object {
@@ -74,6 +78,14 @@ impl Scene {
             return None;
         }
         // Phase 1: the closest (object, t, prim, u, v), nothing else.
+        let (i, t, prim, u, v) = self.closest(ray, t_min, t_max)?;
+        // Phase 2: the surface interaction of that one hit.
+        Some(self.interaction(ray, i, t, prim, u, v))
+    }
+
+    /// Phase 1 of [`Scene::intersect`] for a valid ray: the closest (object, t, prim, u, v).
+    #[inline]
+    fn closest(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<(usize, f32, u32, f32, f32)> {
         let mut best: Option<(usize, f32, u32, f32, f32)> = None;
         match &self.top_level {
             None => {
@@ -100,8 +112,13 @@ impl Scene {
                 }
             }
         }
-        // Phase 2: the surface interaction of that one hit.
-        let (i, t, prim, u, v) = best?;
+        best
+    }
+
+    /// Phase 2 of [`Scene::intersect`]: the surface interaction of object `i` hit by `ray`
+    /// at `t` (`prim`, `u`, `v` on a mesh), built once, for the closest hit only.
+    #[inline]
+    pub(crate) fn interaction(&self, ray: &Ray, i: usize, t: f32, prim: u32, u: f32, v: f32) -> Hit {
         let o = &self.objects[i];
         let ((point, point_error), normal, geometric, slot) = match &o.geometry {
             Geometry::Sphere(s) => {
@@ -125,7 +142,7 @@ impl Scene {
             ),
         };
         let face = |n: Vec3| if ray.direction.dot(n) > 0.0 { -n } else { n };
-        Some(Hit {
+        Hit {
             t,
             point,
             point_error,
@@ -142,7 +159,7 @@ impl Scene {
                 _ => glam::Vec2::ZERO,
             },
             material: o.materials[slot.min(o.materials.len() - 1)],
-        })
+        }
     }
 
     /// True when anything meets the ray in `[t_min, t_max)` (the shadow-ray query).

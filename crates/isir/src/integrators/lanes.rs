@@ -1,0 +1,127 @@
+//! Camera samples in lanes: up to [`LANES`] samples traced together, stage by stage (a
+//! small wavefront). Their closest hits come from one [`Scene::intersect_lanes`]; each
+//! lane's surface interaction and shading is the course's code, one lane after another;
+//! the shadow rays of all the lanes towards one point light go to one
+//! [`Scene::occluded_packet`]. Every lane's colour is the one [`Integrator::li`] returns
+//! for its ray and sampler, bit for bit: the same operations on the same floats, only
+//! grouped differently.
+//!
+//! PERF: one sample at a time, the pipeline is a chain of latencies (a division to decide
+//! a branch, a square root to normalise, a store read back): samples side by side let the
+//! CPU overlap them, and spheres and planes are tested against all the lanes at once.
+
+use super::direct::quad_light;
+use super::shadow::PointBatch;
+use super::{Integrator, RayCounters};
+use crate::geometry::Hit;
+use crate::lights::LightSampler;
+use crate::math::color::Color;
+use crate::math::ray::{RayLanes, RaySegment, ShadowRays, LANES};
+use crate::math::sampling::Sampler;
+use crate::scene::{lane_ray, Scene};
+
+impl Integrator {
+    /// True when [`Integrator::li_lanes`] computes this integrator's samples (ray cast and
+    /// direct lighting); the others are traced one sample at a time.
+    #[must_use]
+    pub fn has_lanes(&self) -> bool {
+        matches!(self, Integrator::RayCast | Integrator::DirectLighting { .. })
+    }
+
+    /// The radiance along each of the first `samplers.len()` rays of `rays` (camera rays:
+    /// interval `[0, ∞)`), into `out`: `out[k]` is what [`Integrator::li`] returns for ray
+    /// `k` and `samplers[k]`, bit for bit, and the counters add up the same. Integrators
+    /// without lanes ([`Integrator::has_lanes`]) take the rays one at a time.
+    ///
+    /// # Panics
+    /// If there are more than [`LANES`] samplers or `out` is shorter than `samplers`.
+    pub fn li_lanes(&self, scene: &Scene, rays: &RayLanes, samplers: &mut [Sampler], counters: &mut RayCounters, out: &mut [Color]) {
+        let n = samplers.len();
+        assert!(n <= LANES && out.len() >= n);
+        if !self.has_lanes() {
+            for (k, sampler) in samplers.iter_mut().enumerate() {
+                out[k] = self.li(scene, &lane_ray(rays, k), rays.t_min[k], rays.t_max[k], sampler, counters);
+            }
+            return;
+        }
+        counters.primary += n as u64;
+        let closest = scene.intersect_lanes(rays, n);
+        let hits: [Option<Hit>; LANES] =
+            std::array::from_fn(|k| if k < n { scene.lane_hit(&lane_ray(rays, k), &closest, k) } else { None });
+        match *self {
+            Integrator::DirectLighting { light_samples } => direct_lanes(scene, rays, &hits, light_samples, samplers, counters, out),
+            _ => {
+                for k in 0..n {
+                    let ray = lane_ray(rays, k);
+                    out[k] = match &hits[k] {
+                        None => scene.background,
+                        Some(hit) => scene.material(hit).color_at(hit) * hit.normal.dot(-ray.direction).max(0.0),
+                    };
+                }
+            }
+        }
+    }
+}
+
+/// [`direct_lighting`] for every lane with a hit, light by light: a point light's shadow
+/// rays from all the lanes in one [`Scene::occluded_packet`]; a quad light's lane by lane
+/// (each lane's samples are already traced together).
+fn direct_lanes(
+    scene: &Scene,
+    rays: &RayLanes,
+    hits: &[Option<Hit>; LANES],
+    light_samples: u32,
+    samplers: &mut [Sampler],
+    counters: &mut RayCounters,
+    out: &mut [Color],
+) {
+    let n = samplers.len();
+    let mut li = [Color::ZERO; LANES];
+    let shadow_rays: [Option<ShadowRays>; LANES] = std::array::from_fn(|k| hits[k].as_ref().map(Hit::shadow_rays));
+    for light in &scene.lights {
+        let light_sampler = light.sampler();
+        if let LightSampler::Quad { .. } = light_sampler {
+            let m = light_samples.max(1);
+            for k in 0..n {
+                if let (Some(hit), Some(sr)) = (&hits[k], &shadow_rays[k]) {
+                    let material = scene.material(hit);
+                    li[k] += quad_light(scene, &lane_ray(rays, k), hit, material, &light_sampler, sr, m, &mut samplers[k], counters);
+                }
+            }
+            continue;
+        }
+        // ---- A point light: one sample per lane, set up together, traced together ----
+        for k in (0..n).filter(|&k| hits[k].is_some()) {
+            // The sample's two numbers, drawn as one at a time draws them (a point needs none).
+            samplers[k].next_2d();
+        }
+        let batch = PointBatch::new(&light_sampler, hits);
+        let mut segments = [RaySegment { origin: glam::Vec3::ZERO, t_min: 0.0, direction: glam::Vec3::ZERO, t_max: 0.0 }; LANES];
+        let mut lane_of = [0usize; LANES];
+        let mut traced = 0;
+        for k in (0..n).filter(|&k| batch.live[k]) {
+            segments[traced] = batch.shadow_ray(k);
+            lane_of[traced] = k;
+            traced += 1;
+        }
+        counters.shadow += traced as u64;
+        let blocked = scene.occluded_packet(&segments[..traced]);
+        let mut sum = [Color::ZERO; LANES];
+        for (j, &k) in lane_of[..traced].iter().enumerate() {
+            if blocked & (1 << j) == 0 {
+                let Some(hit) = &hits[k] else { unreachable!("a live lane has a hit") };
+                let ls = batch.sample(k);
+                sum[k] += scene.material(hit).shade(&lane_ray(rays, k), hit, &ls) * ls.radiance * batch.cos[k];
+            }
+        }
+        for k in 0..n {
+            li[k] += sum[k] / 1.0;
+        }
+    }
+    for k in 0..n {
+        out[k] = match &hits[k] {
+            None => scene.background,
+            Some(_) => li[k],
+        };
+    }
+}
