@@ -33,6 +33,7 @@ impl Plane {
     /// Which of the rays `rays` meet the plane in their interval: bit `k` for lane `k`, the
     /// answers of [`Plane::intersect`] (the same operations lane by lane, vectorised).
     #[must_use]
+    #[inline(always)]
     #[allow(clippy::needless_range_loop)] // one index into many arrays: the loop vectorises
     pub fn hit_lanes(&self, rays: &RayLanes) -> u32 {
         let (p, n) = (self.point, self.normal);
@@ -50,7 +51,7 @@ impl Plane {
     /// `[t_min[k], t_best[k])` gets that `t` in `t_best[k]` and its bit set in the result.
     /// The `t` of [`Plane::intersect`], by the same operations lane by lane, vectorised.
     #[must_use]
-    #[inline]
+    #[inline(always)]
     #[allow(clippy::needless_range_loop)] // one index into many arrays: the loop vectorises
     pub fn closest_lanes(&self, rays: &RayLanes, t_best: &mut [f32; LANES]) -> u32 {
         let (p, n) = (self.point, self.normal);

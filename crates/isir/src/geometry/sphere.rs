@@ -37,6 +37,7 @@ impl Sphere {
     /// Which of the rays `rays` meet the sphere in their interval: bit `k` for lane `k`, the
     /// answers of [`Sphere::intersect`] (the same operations lane by lane, vectorised).
     #[must_use]
+    #[inline(always)]
     #[allow(clippy::needless_range_loop)] // one index into many arrays: the loop vectorises
     pub fn hit_lanes(&self, rays: &RayLanes) -> u32 {
         let (ctr, r2) = (self.center, self.radius * self.radius);
@@ -62,7 +63,7 @@ impl Sphere {
     /// the result. The `t` of [`Sphere::intersect`], by the same operations lane by lane,
     /// vectorised.
     #[must_use]
-    #[inline]
+    #[inline(always)]
     #[allow(clippy::needless_range_loop)] // one index into many arrays: the loop vectorises
     pub fn closest_lanes(&self, rays: &RayLanes, t_best: &mut [f32; LANES]) -> u32 {
         let (ctr, r2) = (self.center, self.radius * self.radius);

@@ -502,7 +502,7 @@ impl TriangleMesh {
     /// `tp4-bunny` at 64 spp, most rays on the room's planes: ray cast 0.77 -> 0.65 s,
     /// direct lighting 1.68 -> 1.48 s.
     #[inline]
-    fn may_hit(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+    pub(crate) fn may_hit(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
         let (inv, _) = crate::accel::wide::slab_inverse(ray.direction);
         let margin =
             Vec3::splat((self.aabb.max - self.aabb.min).max_element() + self.aabb.min.abs().max(self.aabb.max.abs()).max_element())

@@ -188,11 +188,30 @@ impl Scene {
     #[must_use]
     pub fn occluded_packet(&self, rays: &[RaySegment]) -> u32 {
         assert!(rays.len() <= crate::accel::packet::PACKET);
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU has AVX2, which is all `occluded_packet_avx2` is compiled for.
+            return unsafe { self.occluded_packet_avx2(rays) };
+        }
+        self.occluded_packet_portable(rays)
+    }
+
+    /// [`Scene::occluded_packet`] compiled for AVX2: the spheres' and planes' lane loops
+    /// eight lanes wide (no FMA contraction: the same floats).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn occluded_packet_avx2(&self, rays: &[RaySegment]) -> u32 {
+        self.occluded_packet_portable(rays)
+    }
+
+    #[inline(always)]
+    pub(crate) fn occluded_packet_portable(&self, rays: &[RaySegment]) -> u32 {
         let single = |i: usize, k: usize| u32::from(self.blocks(i, &rays[k].ray(), rays[k].t_min, rays[k].t_max)) << k;
         if self.top_level.is_some() || rays.len() < 2 {
             return (0..rays.len()).fold(0, |m, k| m | u32::from(self.occluded(&rays[k].ray(), rays[k].t_min, rays[k].t_max)) << k);
         }
         let mut open: u32 = (0..rays.len()).filter(|&k| rays[k].ray().is_valid()).fold(0, |m, k| m | 1 << k);
+        let one_origin = rays.iter().all(|r| r.origin == rays[0].origin);
         // Built on the first sphere or plane (a mesh alone does not need it).
         let mut lanes: Option<RayLanes> = None;
         let mut occluded = 0;
@@ -203,17 +222,32 @@ impl Scene {
             let blocked = match &object.geometry {
                 Geometry::Sphere(s) => s.hit_lanes(lanes.get_or_insert_with(|| RayLanes::new(rays))) & open,
                 Geometry::Plane(p) => p.hit_lanes(lanes.get_or_insert_with(|| RayLanes::new(rays))) & open,
-                Geometry::Mesh(m) if open.count_ones() as usize >= MESH_PACKET_FROM => {
-                    // The open rays together, then their answers back in their lanes.
-                    let mut group = [rays[0]; crate::accel::packet::PACKET];
-                    let mut index = [0usize; crate::accel::packet::PACKET];
-                    let mut n = 0;
-                    for k in (0..rays.len()).filter(|&k| open & (1 << k) != 0) {
-                        (group[n], index[n]) = (rays[k], k);
-                        n += 1;
+                Geometry::Mesh(m) => {
+                    // Only the rays that may meet the mesh's box (shadow rays from many
+                    // hits miss a small mesh), then those together, their answers back in
+                    // their lanes.
+                    // PERF: rays of one origin (an area light's samples) skip the box test:
+                    // on the conference room it costs 6% and culls nothing.
+                    let near = if one_origin {
+                        open
+                    } else {
+                        (0..rays.len())
+                            .filter(|&k| open & (1 << k) != 0 && m.may_hit(&rays[k].ray(), rays[k].t_min, rays[k].t_max))
+                            .fold(0u32, |acc, k| acc | 1 << k)
+                    };
+                    if (near.count_ones() as usize) < MESH_PACKET_FROM {
+                        (0..rays.len()).filter(|&k| near & (1 << k) != 0).fold(0, |acc, k| acc | single(i, k))
+                    } else {
+                        let mut group = [rays[0]; crate::accel::packet::PACKET];
+                        let mut index = [0usize; crate::accel::packet::PACKET];
+                        let mut n = 0;
+                        for k in (0..rays.len()).filter(|&k| near & (1 << k) != 0) {
+                            (group[n], index[n]) = (rays[k], k);
+                            n += 1;
+                        }
+                        let hit = m.occluded_packet(&group[..n]);
+                        (0..n).filter(|&g| hit & (1 << g) != 0).fold(0, |acc, g| acc | 1 << index[g])
                     }
-                    let hit = m.occluded_packet(&group[..n]);
-                    (0..n).filter(|&g| hit & (1 << g) != 0).fold(0, |acc, g| acc | 1 << index[g])
                 }
                 _ => (0..rays.len()).filter(|&k| open & (1 << k) != 0).fold(0, |acc, k| acc | single(i, k)),
             };
