@@ -7,7 +7,7 @@ use crate::accel::triangle::{moller_trumbore, TriangleTest, WatertightRay};
 use crate::accel::wide::{TraversalStats, WideBvh};
 use crate::accel::{Accel, MeshHit, Triangles};
 use crate::math::aabb::Aabb;
-use crate::math::ray::{gamma, Ray};
+use crate::math::ray::{gamma, lane_mask, Ray, RayLanes, LANES};
 use glam::{Vec2, Vec3};
 
 /// Triangle tests by one probe ray above which [`TriangleMesh::overlap_probe`] reports
@@ -514,6 +514,39 @@ impl TriangleMesh {
         // NaN anywhere: no verdict here (only a definite "entry after exit" rejects).
         let (near, far) = (near - near.abs() * 1e-5, far + far.abs() * 1e-5);
         near.partial_cmp(&far) != Some(std::cmp::Ordering::Greater)
+    }
+
+    /// [`TriangleMesh::may_hit`] for every lane of `rays` (bit `k` for lane `k`), by the
+    /// same operations lane by lane, without branches, so that the loop vectorises.
+    #[inline(always)]
+    #[allow(clippy::needless_range_loop)] // one index into many arrays: the loop vectorises
+    pub(crate) fn may_hit_lanes(&self, rays: &RayLanes) -> u32 {
+        let margin =
+            Vec3::splat((self.aabb.max - self.aabb.min).max_element() + self.aabb.min.abs().max(self.aabb.max.abs()).max_element())
+                * (1.0 / 65_536.0);
+        let (lo, hi) = ((self.aabb.min - margin).to_array(), (self.aabb.max + margin).to_array());
+        let mut hit = [false; LANES];
+        for k in 0..LANES {
+            let (mut mn, mut mx) = ([0f32; 3], [0f32; 3]);
+            for a in 0..3 {
+                let d = rays.d[a][k];
+                // `slab_inverse`.
+                let inv = 1.0 / if d.abs() < 1e-30 { 1e-30f32.copysign(d) } else { d };
+                let (p, q) = ((lo[a] - rays.o[a][k]) * inv, (hi[a] - rays.o[a][k]) * inv);
+                mn[a] = if p < q { p } else { q };
+                mx[a] = if p > q { p } else { q };
+            }
+            let big = |a: f32, b: f32| if a > b { a } else { b };
+            let small = |a: f32, b: f32| if a < b { a } else { b };
+            let near = big(mn[0], big(mn[1], mn[2])).max(rays.t_min[k]);
+            let far = small(mx[0], small(mx[1], mx[2])).min(rays.t_max[k]);
+            let (near, far) = (near - near.abs() * 1e-5, far + far.abs() * 1e-5);
+            // Not `near <= far`: a NaN gives no verdict here, so the lane may hit.
+            #[allow(clippy::neg_cmp_op_on_partial_ord)]
+            let may = !(near > far);
+            hit[k] = may;
+        }
+        lane_mask(&hit)
     }
 
     /// True when some triangle meets the ray in `[t_min, t_max)` (any-hit query).

@@ -77,7 +77,11 @@ fn direct_lanes(
 ) {
     let n = samplers.len();
     let mut li = [Color::ZERO; LANES];
-    let shadow_rays: [Option<ShadowRays>; LANES] = std::array::from_fn(|k| hits[k].as_ref().map(Hit::shadow_rays));
+    // Quad lights' shadow rays leave from each hit's offset origins (point lights set up
+    // theirs in `PointBatch`).
+    let quads = scene.lights.iter().any(|l| l.is_surface());
+    let shadow_rays: [Option<ShadowRays>; LANES] =
+        std::array::from_fn(|k| if quads { hits[k].as_ref().map(Hit::shadow_rays) } else { None });
     for light in &scene.lights {
         let light_sampler = light.sampler();
         if let LightSampler::Quad { .. } = light_sampler {

@@ -117,6 +117,48 @@ mod tests {
     use crate::{scenes, Accel};
     use glam::Vec3;
 
+    /// A mesh's box test in lanes answers as the one-ray test, lane by lane: rays from
+    /// inside, outside and far from the box, axis-parallel, zero and NaN directions.
+    #[test]
+    fn may_hit_lanes_answers_as_may_hit() {
+        let desc = scenes::builtin("tp4-bunny").unwrap();
+        let scene = desc.build(Accel::BvhSah).unwrap();
+        let (_, mesh) = scene.meshes().next().unwrap();
+        let (lo, hi) = (mesh.aabb().min, mesh.aabb().max);
+        let mut rng = Sampler::from_seed(8);
+        let (mut yes, mut no) = (0, 0);
+        for round in 0..2000 {
+            let rays: Vec<RaySegment> = (0..1 + round % LANES)
+                .map(|k| {
+                    let mut r = |a: f32, b: f32| a + (b - a) * rng.next_f32();
+                    let spread = [0.5, 2.0, 50.0][k % 3];
+                    let c = (lo + hi) * 0.5;
+                    let e = (hi - lo) * spread;
+                    let origin = Vec3::new(r(c.x - e.x, c.x + e.x), r(c.y - e.y, c.y + e.y), r(c.z - e.z, c.z + e.z));
+                    let mut direction = Vec3::new(r(-1.0, 1.0), r(-1.0, 1.0), r(-1.0, 1.0));
+                    match (round + k) % 7 {
+                        0 => direction = Vec3::ZERO,
+                        1 => direction.y = 0.0,
+                        2 => direction.x = f32::NAN,
+                        _ => {}
+                    }
+                    RaySegment { origin, t_min: 0.0, direction, t_max: [f32::INFINITY, 0.05, 1.0][k % 3] }
+                })
+                .collect();
+            let mask = mesh.may_hit_lanes(&RayLanes::new(&rays));
+            for (k, r) in rays.iter().enumerate() {
+                let expected = mesh.may_hit(&r.ray(), r.t_min, r.t_max);
+                assert_eq!(mask & (1 << k) != 0, expected, "{r:?}");
+                if expected {
+                    yes += 1;
+                } else {
+                    no += 1;
+                }
+            }
+        }
+        assert!(yes > 1000 && no > 1000, "{yes} {no}");
+    }
+
     /// Every lane finds the hit of `Scene::intersect`, field for field, on scenes of
     /// spheres, planes, meshes, an implicit surface and a top-level BVH, with invalid rays
     /// and partial groups among them.

@@ -228,13 +228,7 @@ impl Scene {
                     // their lanes.
                     // PERF: rays of one origin (an area light's samples) skip the box test:
                     // on the conference room it costs 6% and culls nothing.
-                    let near = if one_origin {
-                        open
-                    } else {
-                        (0..rays.len())
-                            .filter(|&k| open & (1 << k) != 0 && m.may_hit(&rays[k].ray(), rays[k].t_min, rays[k].t_max))
-                            .fold(0u32, |acc, k| acc | 1 << k)
-                    };
+                    let near = if one_origin { open } else { open & m.may_hit_lanes(lanes.get_or_insert_with(|| RayLanes::new(rays))) };
                     if (near.count_ones() as usize) < MESH_PACKET_FROM {
                         (0..rays.len()).filter(|&k| near & (1 << k) != 0).fold(0, |acc, k| acc | single(i, k))
                     } else {
