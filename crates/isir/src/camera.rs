@@ -111,10 +111,7 @@ mod tests {
                 let mut lanes = RayLanes::new(&[]);
                 cam.generate_rays(&sx, &sy, &mut lanes);
                 for k in 0..LANES {
-                    let got = Ray::new(
-                        Vec3::new(lanes.o[0][k], lanes.o[1][k], lanes.o[2][k]),
-                        Vec3::new(lanes.d[0][k], lanes.d[1][k], lanes.d[2][k]),
-                    );
+                    let got = lanes.ray(k);
                     if k < n {
                         let want = cam.generate_ray(sx[k], sy[k]);
                         assert_eq!(got.origin.to_array().map(f32::to_bits), want.origin.to_array().map(f32::to_bits));

@@ -224,11 +224,9 @@ impl Renderer {
             for x in x0..x1 {
                 let pixel_index = u64::from(y) * u64::from(self.width) + u64::from(x);
                 for s in 0..self.spp {
-                    let mut rng = pixel_rng(self.seed, pixel_index, s);
-                    let jitter = if self.spp == 1 { glam::Vec2::splat(0.5) } else { rng.next_2d() };
                     let k = samplers.len();
-                    sx[k] = (x as f32 + jitter.x) / self.width as f32;
-                    sy[k] = (y as f32 + jitter.y) / self.height as f32;
+                    let (rng, screen) = self.camera_sample(x, y, pixel_index, s);
+                    (sx[k], sy[k]) = (screen.x, screen.y);
                     slot[k] = (y - y0) as usize * tw + (x - x0) as usize;
                     samplers.push(rng);
                     if samplers.len() == LANES {
@@ -240,7 +238,18 @@ impl Renderer {
         if !samplers.is_empty() {
             flush(&mut samplers, &sx, &sy, &slot, &mut sums);
         }
-        sums.into_iter().map(|(sum, kept)| if kept == 0 { Color::ZERO } else { sum / kept as f32 }).collect()
+        sums.into_iter().map(|(sum, kept)| average(sum, kept)).collect()
+    }
+
+    /// Sample `s` of pixel `(x, y)` (row-major index `pixel_index`): its random numbers
+    /// after the jitter is drawn, and its screen point (the pixel centre at 1 spp, a
+    /// jittered point otherwise).
+    #[inline]
+    fn camera_sample(&self, x: u32, y: u32, pixel_index: u64, s: u32) -> (Sampler, glam::Vec2) {
+        let mut rng = pixel_rng(self.seed, pixel_index, s);
+        let jitter = if self.spp == 1 { glam::Vec2::splat(0.5) } else { rng.next_2d() };
+        let screen = glam::Vec2::new((x as f32 + jitter.x) / self.width as f32, (y as f32 + jitter.y) / self.height as f32);
+        (rng, screen)
     }
 
     /// The average of the pixel's finite samples (see [`SampleCounts`]).
@@ -257,22 +266,25 @@ impl Renderer {
         let mut sum = Color::ZERO;
         let mut kept = 0u32;
         for s in 0..self.spp {
-            let mut rng = pixel_rng(self.seed, pixel_index, s);
-            let jitter = if self.spp == 1 { glam::Vec2::splat(0.5) } else { rng.next_2d() };
-            let sx = (x as f32 + jitter.x) / self.width as f32;
-            let sy = (y as f32 + jitter.y) / self.height as f32;
-            let ray = camera.generate_ray(sx, sy);
+            let (mut rng, screen) = self.camera_sample(x, y, pixel_index, s);
+            let ray = camera.generate_ray(screen.x, screen.y);
             let c = integrator.li(scene, &ray, 0.0, f32::INFINITY, &mut rng, counters);
             if samples.check(c) {
                 sum += c;
                 kept += 1;
             }
         }
-        if kept == 0 {
-            Color::ZERO
-        } else {
-            sum / kept as f32
-        }
+        average(sum, kept)
+    }
+}
+
+/// A pixel's value: the average of its `kept` finite samples, black if it has none.
+#[inline]
+fn average(sum: Color, kept: u32) -> Color {
+    if kept == 0 {
+        Color::ZERO
+    } else {
+        sum / kept as f32
     }
 }
 

@@ -32,6 +32,9 @@ impl Plane {
 
     /// Which of the rays `rays` meet the plane in their interval: bit `k` for lane `k`, the
     /// answers of [`Plane::intersect`] (the same operations lane by lane, vectorised).
+    /// PERF: its own loop rather than `closest_lanes` on a copy of `t_max` (the same
+    /// answers): that form, which also keeps each lane's `t`, made tp3-quad-soft 12% and
+    /// tp4-sphere 9% slower (64 spp, medians of 7).
     #[must_use]
     #[inline(always)]
     #[allow(clippy::needless_range_loop)] // one index into many arrays: the loop vectorises

@@ -503,12 +503,27 @@ impl TriangleMesh {
     /// direct lighting 1.68 -> 1.48 s.
     #[inline]
     pub(crate) fn may_hit(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
-        let (inv, _) = crate::accel::wide::slab_inverse(ray.direction);
+        let (lo, hi) = self.grown_box();
+        Self::box_may_hit(lo, hi, ray, t_min, t_max)
+    }
+
+    /// The mesh's box grown by 2^-16 of its size and of its distance from the origin
+    /// ([`TriangleMesh::may_hit`]).
+    #[inline(always)]
+    fn grown_box(&self) -> (Vec3, Vec3) {
         let margin =
             Vec3::splat((self.aabb.max - self.aabb.min).max_element() + self.aabb.min.abs().max(self.aabb.max.abs()).max_element())
                 * (1.0 / 65_536.0);
-        let a = (self.aabb.min - margin - ray.origin) * inv;
-        let b = (self.aabb.max + margin - ray.origin) * inv;
+        (self.aabb.min - margin, self.aabb.max + margin)
+    }
+
+    /// The slab test of [`TriangleMesh::may_hit`] against the box `lo..hi`: selects only
+    /// (glam's `min`, `max`, `max_element`, `min_element`), so a loop over lanes vectorises.
+    #[inline(always)]
+    fn box_may_hit(lo: Vec3, hi: Vec3, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+        let (inv, _) = crate::accel::wide::slab_inverse(ray.direction);
+        let a = (lo - ray.origin) * inv;
+        let b = (hi - ray.origin) * inv;
         let near = a.min(b).max_element().max(t_min);
         let far = a.max(b).min_element().min(t_max);
         // NaN anywhere: no verdict here (only a definite "entry after exit" rejects).
@@ -521,30 +536,10 @@ impl TriangleMesh {
     #[inline(always)]
     #[allow(clippy::needless_range_loop)] // one index into many arrays: the loop vectorises
     pub(crate) fn may_hit_lanes(&self, rays: &RayLanes) -> u32 {
-        let margin =
-            Vec3::splat((self.aabb.max - self.aabb.min).max_element() + self.aabb.min.abs().max(self.aabb.max.abs()).max_element())
-                * (1.0 / 65_536.0);
-        let (lo, hi) = ((self.aabb.min - margin).to_array(), (self.aabb.max + margin).to_array());
+        let (lo, hi) = self.grown_box();
         let mut hit = [false; LANES];
         for k in 0..LANES {
-            let (mut mn, mut mx) = ([0f32; 3], [0f32; 3]);
-            for a in 0..3 {
-                let d = rays.d[a][k];
-                // `slab_inverse`.
-                let inv = 1.0 / if d.abs() < 1e-30 { 1e-30f32.copysign(d) } else { d };
-                let (p, q) = ((lo[a] - rays.o[a][k]) * inv, (hi[a] - rays.o[a][k]) * inv);
-                mn[a] = if p < q { p } else { q };
-                mx[a] = if p > q { p } else { q };
-            }
-            let big = |a: f32, b: f32| if a > b { a } else { b };
-            let small = |a: f32, b: f32| if a < b { a } else { b };
-            let near = big(mn[0], big(mn[1], mn[2])).max(rays.t_min[k]);
-            let far = small(mx[0], small(mx[1], mx[2])).min(rays.t_max[k]);
-            let (near, far) = (near - near.abs() * 1e-5, far + far.abs() * 1e-5);
-            // Not `near <= far`: a NaN gives no verdict here, so the lane may hit.
-            #[allow(clippy::neg_cmp_op_on_partial_ord)]
-            let may = !(near > far);
-            hit[k] = may;
+            hit[k] = Self::box_may_hit(lo, hi, &rays.ray(k), rays.t_min[k], rays.t_max[k]);
         }
         lane_mask(&hit)
     }

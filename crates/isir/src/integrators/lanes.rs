@@ -18,7 +18,7 @@ use crate::lights::LightSampler;
 use crate::math::color::Color;
 use crate::math::ray::{RayLanes, RaySegment, ShadowRays, LANES};
 use crate::math::sampling::Sampler;
-use crate::scene::{lane_ray, Scene};
+use crate::scene::Scene;
 
 impl Integrator {
     /// True when [`Integrator::li_lanes`] computes this integrator's samples (ray cast and
@@ -40,19 +40,18 @@ impl Integrator {
         assert!(n <= LANES && out.len() >= n);
         if !self.has_lanes() {
             for (k, sampler) in samplers.iter_mut().enumerate() {
-                out[k] = self.li(scene, &lane_ray(rays, k), rays.t_min[k], rays.t_max[k], sampler, counters);
+                out[k] = self.li(scene, &rays.ray(k), rays.t_min[k], rays.t_max[k], sampler, counters);
             }
             return;
         }
         counters.primary += n as u64;
         let closest = scene.intersect_lanes(rays, n);
-        let hits: [Option<Hit>; LANES] =
-            std::array::from_fn(|k| if k < n { scene.lane_hit(&lane_ray(rays, k), &closest, k) } else { None });
+        let hits: [Option<Hit>; LANES] = std::array::from_fn(|k| if k < n { scene.lane_hit(&rays.ray(k), &closest, k) } else { None });
         match *self {
             Integrator::DirectLighting { light_samples } => direct_lanes(scene, rays, &hits, light_samples, samplers, counters, out),
             _ => {
                 for k in 0..n {
-                    let ray = lane_ray(rays, k);
+                    let ray = rays.ray(k);
                     out[k] = match &hits[k] {
                         None => scene.background,
                         Some(hit) => scene.material(hit).color_at(hit) * hit.normal.dot(-ray.direction).max(0.0),
@@ -89,7 +88,7 @@ fn direct_lanes(
             for k in 0..n {
                 if let (Some(hit), Some(sr)) = (&hits[k], &shadow_rays[k]) {
                     let material = scene.material(hit);
-                    li[k] += quad_light(scene, &lane_ray(rays, k), hit, material, &light_sampler, sr, m, &mut samplers[k], counters);
+                    li[k] += quad_light(scene, &rays.ray(k), hit, material, &light_sampler, sr, m, &mut samplers[k], counters);
                 }
             }
             continue;
@@ -115,7 +114,7 @@ fn direct_lanes(
             if blocked & (1 << j) == 0 {
                 let Some(hit) = &hits[k] else { unreachable!("a live lane has a hit") };
                 let ls = batch.sample(k);
-                sum[k] += scene.material(hit).shade(&lane_ray(rays, k), hit, &ls) * ls.radiance * batch.cos[k];
+                sum[k] += scene.material(hit).shade(&rays.ray(k), hit, &ls) * ls.radiance * batch.cos[k];
             }
         }
         for k in 0..n {

@@ -12,7 +12,7 @@
 use crate::geometry::Hit;
 use crate::lights::{LightSample, LightSampler};
 use crate::math::color::Color;
-use crate::math::ray::{Ray, RaySegment, ShadowRays};
+use crate::math::ray::{round_away, Ray, RaySegment, ShadowRays};
 use glam::{Vec2, Vec3};
 
 /// Samples per batch.
@@ -187,31 +187,6 @@ pub(super) struct PointBatch {
     position: Vec3,
 }
 
-/// The next float above `x` ([`crate::math::ray::next_float_up`]) without a branch.
-#[inline(always)]
-fn float_up(x: f32) -> f32 {
-    let z = if x == 0.0 { 0.0 } else { x };
-    let b = z.to_bits();
-    let up = f32::from_bits(if z >= 0.0 { b.wrapping_add(1) } else { b.wrapping_sub(1) });
-    if x == f32::INFINITY || x.is_nan() {
-        x
-    } else {
-        up
-    }
-}
-
-/// `po` rounded one float further along `side` (as `offset_along`).
-#[inline(always)]
-fn away(po: f32, side: f32) -> f32 {
-    if side > 0.0 {
-        float_up(po)
-    } else if side < 0.0 {
-        -float_up(-po)
-    } else {
-        po
-    }
-}
-
 impl PointBatch {
     /// The point light `light` (a [`LightSampler::Point`]) seen from the hits `hits`.
     pub(super) fn new(light: &LightSampler, hits: &[Option<Hit>; BATCH]) -> Self {
@@ -276,7 +251,7 @@ impl PointBatch {
             let mut o = [0f32; 3];
             for k in 0..3 {
                 let side = if back { -ng[k][j] } else { ng[k][j] };
-                o[k] = away(p[k][j] + off[j] * side, side);
+                o[k] = round_away(p[k][j] + off[j] * side, side);
             }
             let t = [y[0] - o[0], y[1] - o[1], y[2] - o[2]];
             let dist = (t[0] * t[0] + t[1] * t[1] + t[2] * t[2]).sqrt();

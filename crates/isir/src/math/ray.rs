@@ -96,6 +96,15 @@ impl RayLanes {
     }
 }
 
+impl RayLanes {
+    /// Lane `k`'s ray.
+    #[inline(always)]
+    #[must_use]
+    pub fn ray(&self, k: usize) -> Ray {
+        Ray::new(Vec3::new(self.o[0][k], self.o[1][k], self.o[2][k]), Vec3::new(self.d[0][k], self.d[1][k], self.d[2][k]))
+    }
+}
+
 /// The bits `0..LANES` of the lanes where `hit` holds.
 #[inline]
 #[must_use]
@@ -112,23 +121,41 @@ pub const fn gamma(n: u32) -> f32 {
     nu / (1.0 - nu)
 }
 
-/// The next float above `x` (`+∞` stays; `-0.0` goes to the smallest positive float).
-#[inline]
+/// The next float above `x` (`+∞` and NaN stay; `-0.0` goes to the smallest positive
+/// float). Written with selects, not branches, so that lane loops vectorise it.
+#[inline(always)]
 #[must_use]
 pub fn next_float_up(x: f32) -> f32 {
-    if x.is_infinite() && x > 0.0 || x.is_nan() {
-        return x;
+    let z = if x == 0.0 { 0.0 } else { x };
+    let bits = z.to_bits();
+    let up = f32::from_bits(if z >= 0.0 { bits.wrapping_add(1) } else { bits.wrapping_sub(1) });
+    if x == f32::INFINITY || x.is_nan() {
+        x
+    } else {
+        up
     }
-    let x = if x == -0.0 { 0.0 } else { x };
-    let bits = x.to_bits();
-    f32::from_bits(if x >= 0.0 { bits + 1 } else { bits - 1 })
 }
 
 /// The next float below `x`.
-#[inline]
+#[inline(always)]
 #[must_use]
 pub fn next_float_down(x: f32) -> f32 {
     -next_float_up(-x)
+}
+
+/// `po` rounded one float further in the direction of `side`'s sign (unchanged where
+/// `side` is 0): one coordinate of [`offset_ray_origin`]'s rounding, shared with the lane
+/// loops that compute the same origins.
+#[inline(always)]
+#[must_use]
+pub(crate) fn round_away(po: f32, side: f32) -> f32 {
+    if side > 0.0 {
+        next_float_up(po)
+    } else if side < 0.0 {
+        next_float_down(po)
+    } else {
+        po
+    }
 }
 
 /// Offset a surface point so that rays leaving it along `w` do not hit its surface again
@@ -153,16 +180,7 @@ pub fn offset_ray_origin(p: Vec3, p_error: Vec3, n: Vec3, w: Vec3) -> Vec3 {
 #[inline]
 fn offset_along(p: Vec3, d: f32, side: Vec3) -> Vec3 {
     let po = p + d * side;
-    let away = |po: f32, o: f32| {
-        if o > 0.0 {
-            next_float_up(po)
-        } else if o < 0.0 {
-            next_float_down(po)
-        } else {
-            po
-        }
-    };
-    Vec3::new(away(po.x, side.x), away(po.y, side.y), away(po.z, side.z))
+    Vec3::new(round_away(po.x, side.x), round_away(po.y, side.y), round_away(po.z, side.z))
 }
 
 /// The ray leaving surface point `p` (error bound `p_error`, geometric normal `ng`) in
@@ -343,6 +361,11 @@ mod tests {
         assert_eq!(next_float_up(-1.0), -1.0 + f32::EPSILON / 2.0);
         assert_eq!(next_float_up(f32::INFINITY), f32::INFINITY);
         assert_eq!(next_float_up(f32::MAX), f32::INFINITY);
+        assert!(next_float_up(f32::NAN).is_nan() && next_float_down(f32::NAN).is_nan());
+        assert_eq!(next_float_up(f32::NEG_INFINITY), f32::MIN);
+        assert_eq!(next_float_down(f32::NEG_INFINITY), f32::NEG_INFINITY);
+        assert_eq!(next_float_up(-f32::from_bits(1)).to_bits(), (-0.0f32).to_bits());
+        assert_eq!((round_away(1.0, 2.0), round_away(1.0, -2.0), round_away(1.0, 0.0)), (next_float_up(1.0), next_float_down(1.0), 1.0));
         assert!(gamma(3) > 3.0 * f32::EPSILON / 2.0 && gamma(3) < 3.1 * f32::EPSILON / 2.0);
     }
 

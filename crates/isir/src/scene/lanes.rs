@@ -10,7 +10,6 @@
 use super::Scene;
 use crate::geometry::{Geometry, Hit};
 use crate::math::ray::{Ray, RayLanes, LANES};
-use glam::Vec3;
 
 /// No object: the lane's ray met nothing.
 pub const NO_OBJECT: u32 = u32::MAX;
@@ -29,12 +28,6 @@ pub struct LaneHits {
     pub u: [f32; LANES],
     /// Barycentric `v` on a triangle.
     pub v: [f32; LANES],
-}
-
-/// Lane `k`'s ray.
-#[inline]
-pub(crate) fn lane_ray(rays: &RayLanes, k: usize) -> Ray {
-    Ray::new(Vec3::new(rays.o[0][k], rays.o[1][k], rays.o[2][k]), Vec3::new(rays.d[0][k], rays.d[1][k], rays.d[2][k]))
 }
 
 impl Scene {
@@ -64,10 +57,10 @@ impl Scene {
     pub(crate) fn intersect_lanes_portable(&self, rays: &RayLanes, count: usize) -> LaneHits {
         let mut hits = LaneHits { object: [NO_OBJECT; LANES], t: [0.0; LANES], prim: [0; LANES], u: [0.0; LANES], v: [0.0; LANES] };
         let count = count.min(LANES);
-        let valid: [bool; LANES] = std::array::from_fn(|k| k < count && lane_ray(rays, k).is_valid());
+        let valid: [bool; LANES] = std::array::from_fn(|k| k < count && rays.ray(k).is_valid());
         if self.top_level.is_some() {
             for k in (0..count).filter(|&k| valid[k]) {
-                if let Some((i, t, prim, u, v)) = self.closest(&lane_ray(rays, k), rays.t_min[k], rays.t_max[k]) {
+                if let Some((i, t, prim, u, v)) = self.closest(&rays.ray(k), rays.t_min[k], rays.t_max[k]) {
                     (hits.object[k], hits.t[k], hits.prim[k], hits.u[k], hits.v[k]) = (i as u32, t, prim, u, v);
                 }
             }
@@ -89,7 +82,7 @@ impl Scene {
                 Geometry::Plane(p) => mark(p.closest_lanes(rays, &mut t_best), &mut hits),
                 _ => {
                     for k in (0..count).filter(|&k| valid[k]) {
-                        if let Some((t, prim, u, v)) = self.hit_object(i, &lane_ray(rays, k), rays.t_min[k], t_best[k]) {
+                        if let Some((t, prim, u, v)) = self.hit_object(i, &rays.ray(k), rays.t_min[k], t_best[k]) {
                             t_best[k] = t;
                             (hits.object[k], hits.prim[k], hits.u[k], hits.v[k]) = (i as u32, prim, u, v);
                         }

@@ -16,7 +16,6 @@ use crate::math::ray::{Ray, RayLanes, RaySegment};
 use glam::Vec3;
 
 mod lanes;
-pub(crate) use lanes::lane_ray;
 pub use lanes::{LaneHits, NO_OBJECT};
 
 /// An object: a geometry and the materials of its parts (one, or one per mesh material).
