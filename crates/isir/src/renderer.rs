@@ -160,7 +160,7 @@ impl Renderer {
                     .map(|tx| {
                         let (x0, x1) = (tx * ts, (tx * ts + ts).min(w));
                         let mut counters = (RayCounters::default(), SampleCounts::default());
-                        let pixels = if self.lanes && integrator.has_lanes() {
+                        let pixels = if self.lanes {
                             self.tile_in_lanes(scene, camera, integrator, (x0, x1, y0, y1), &mut counters)
                         } else {
                             let mut pixels = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
@@ -328,21 +328,24 @@ mod tests {
     }
 
     /// Samples in lanes give the image of one sample at a time, pixel for pixel, and the
-    /// same counts: every built-in scene whose integrator has lanes, at sample counts that
-    /// fill lanes partly (1, 3), exactly (16) and across pixels (5), on meshes at this
-    /// CPU's best SIMD level.
+    /// same counts: every built-in scene with its own integrator and with each of the four,
+    /// at sample counts that fill lanes partly (1, 3), exactly (16) and across pixels (5),
+    /// on meshes at this CPU's best SIMD level.
     #[test]
     fn lanes_render_the_image_of_one_sample_at_a_time() {
-        let mut lanes_scenes = 0;
+        let mut scenes = 0;
         for (name, _) in crate::scenes::list() {
             let desc = crate::scenes::builtin(name).unwrap();
-            let integrators = [desc.integrator, Integrator::RayCast, Integrator::DirectLighting { light_samples: 3 }];
+            let integrators = [
+                desc.integrator,
+                Integrator::RayCast,
+                Integrator::DirectLighting { light_samples: 3 },
+                Integrator::Whitted { light_samples: 3, max_depth: 4 },
+                Integrator::Path { light_samples: 3, max_depth: 4 },
+            ];
             let scene = desc.build(crate::Accel::BvhSah).unwrap();
+            scenes += 1;
             for (i, integrator) in integrators.into_iter().enumerate() {
-                if !integrator.has_lanes() {
-                    continue;
-                }
-                lanes_scenes += usize::from(i == 0);
                 let spp = [1, 3, 16, 5][(i + name.len()) % 4];
                 let one = Renderer { lanes: false, ..Renderer::new(37, 23).spp(spp).seed(4) };
                 let camera = desc.camera.build(one.aspect());
@@ -353,6 +356,6 @@ mod tests {
                 assert_eq!((sa.rays, sa.samples), (sb.rays, sb.samples), "{name}");
             }
         }
-        assert!(lanes_scenes >= 25, "{lanes_scenes} scenes with lanes");
+        assert!(scenes >= 30, "{scenes} scenes");
     }
 }

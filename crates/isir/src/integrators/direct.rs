@@ -97,9 +97,11 @@ pub(super) fn quad_light(
         counters.shadow += lanes.len() as u64;
         // All the hit's shadow rays at once (`Scene::occluded_packet` decides how).
         let blocked = scene.occluded_packet(&rays[..lanes.len()]);
+        // `material.shade(ray, hit, &batch.sample(j))` of every sample, computed together.
+        let f = batch.shade(material, ray, hit);
         for (k, &j) in lanes.iter().enumerate() {
             if blocked & (1 << k) == 0 {
-                sum += material.shade(ray, hit, &batch.sample(j)) * batch.radiance(j) * batch.cos[j];
+                sum += Color::new(f[0][j], f[1][j], f[2][j]) * batch.radiance(j) * batch.cos[j];
             }
         }
     }

@@ -2,7 +2,8 @@
 //! small wavefront). Their closest hits come from one [`Scene::intersect_lanes`]; each
 //! lane's surface interaction and shading is the course's code, one lane after another;
 //! the shadow rays of all the lanes towards one point light go to one
-//! [`Scene::occluded_packet`]. Every lane's colour is the one [`Integrator::li`] returns
+//! [`Scene::occluded_packet`]. Whitted's mirrors and glass recurse, and the path tracer
+//! follows its paths, one lane at a time from the first hit on. Every lane's colour is the one [`Integrator::li`] returns
 //! for its ray and sampler, bit for bit: the same operations on the same floats, only
 //! grouped differently.
 //!
@@ -12,7 +13,7 @@
 
 use super::direct::quad_light;
 use super::shadow::PointBatch;
-use super::{Integrator, RayCounters};
+use super::{path, whitted, Integrator, RayCounters};
 use crate::geometry::Hit;
 use crate::lights::LightSampler;
 use crate::math::color::Color;
@@ -21,35 +22,38 @@ use crate::math::sampling::Sampler;
 use crate::scene::Scene;
 
 impl Integrator {
-    /// True when [`Integrator::li_lanes`] computes this integrator's samples (ray cast and
-    /// direct lighting); the others are traced one sample at a time.
-    #[must_use]
-    pub fn has_lanes(&self) -> bool {
-        matches!(self, Integrator::RayCast | Integrator::DirectLighting { .. })
-    }
-
     /// The radiance along each of the first `samplers.len()` rays of `rays` (camera rays:
     /// interval `[0, ∞)`), into `out`: `out[k]` is what [`Integrator::li`] returns for ray
-    /// `k` and `samplers[k]`, bit for bit, and the counters add up the same. Integrators
-    /// without lanes ([`Integrator::has_lanes`]) take the rays one at a time.
+    /// `k` and `samplers[k]`, bit for bit, and the counters add up the same.
     ///
     /// # Panics
     /// If there are more than [`LANES`] samplers or `out` is shorter than `samplers`.
     pub fn li_lanes(&self, scene: &Scene, rays: &RayLanes, samplers: &mut [Sampler], counters: &mut RayCounters, out: &mut [Color]) {
         let n = samplers.len();
         assert!(n <= LANES && out.len() >= n);
-        if !self.has_lanes() {
-            for (k, sampler) in samplers.iter_mut().enumerate() {
-                out[k] = self.li(scene, &rays.ray(k), rays.t_min[k], rays.t_max[k], sampler, counters);
-            }
-            return;
-        }
         counters.primary += n as u64;
         let closest = scene.intersect_lanes(rays, n);
         let hits: [Option<Hit>; LANES] = std::array::from_fn(|k| if k < n { scene.lane_hit(&rays.ray(k), &closest, k) } else { None });
         match *self {
             Integrator::DirectLighting { light_samples } => direct_lanes(scene, rays, &hits, light_samples, samplers, counters, out),
-            _ => {
+            Integrator::Whitted { light_samples, max_depth } => {
+                // Direct lighting in lanes where the surface is not a mirror or glass; the
+                // recursion one lane at a time where it is.
+                let specular: [bool; LANES] = std::array::from_fn(|k| hits[k].as_ref().is_some_and(|h| scene.material(h).is_delta()));
+                let diffuse: [Option<Hit>; LANES] = std::array::from_fn(|k| if specular[k] { None } else { hits[k] });
+                direct_lanes(scene, rays, &diffuse, light_samples, samplers, counters, out);
+                for k in (0..n).filter(|&k| specular[k]) {
+                    let Some(hit) = &hits[k] else { unreachable!("a specular lane has a hit") };
+                    out[k] = whitted::li_at_hit(scene, &rays.ray(k), hit, light_samples, max_depth, &mut samplers[k], counters);
+                }
+            }
+            Integrator::Path { light_samples, max_depth } => {
+                for (k, sampler) in samplers.iter_mut().enumerate() {
+                    let (ray, t_min, t_max) = (rays.ray(k), rays.t_min[k], rays.t_max[k]);
+                    out[k] = path::li_from_first_hit(scene, &ray, t_min, t_max, hits[k], light_samples, max_depth, sampler, counters);
+                }
+            }
+            Integrator::RayCast => {
                 for k in 0..n {
                     let ray = rays.ray(k);
                     out[k] = match &hits[k] {

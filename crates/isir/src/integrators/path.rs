@@ -15,7 +15,7 @@ use crate::geometry::Hit;
 use crate::lights::{LightSample, LightSampler};
 use crate::materials::Material;
 use crate::math::color::Color;
-use crate::math::ray::Ray;
+use crate::math::ray::{Ray, RaySegment};
 use crate::math::sampling::Sampler;
 use crate::scene::Scene;
 use glam::{Vec2, Vec3};
@@ -52,6 +52,25 @@ pub(super) fn li(
     counters: &mut RayCounters,
 ) -> Color {
     counters.primary += 1;
+    let first = scene.intersect(ray, t_min, t_max);
+    li_from_first_hit(scene, ray, t_min, t_max, first, light_samples, max_depth, sampler, counters)
+}
+
+/// The path tracer's colour of a camera ray whose closest hit in `[t_min, t_max)` is
+/// `first` (found by [`Scene::intersect_lanes`]): what [`li`] returns for it once that hit
+/// is known.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn li_from_first_hit(
+    scene: &Scene,
+    ray: &Ray,
+    t_min: f32,
+    t_max: f32,
+    first: Option<Hit>,
+    light_samples: u32,
+    max_depth: u32,
+    sampler: &mut Sampler,
+    counters: &mut RayCounters,
+) -> Color {
     let n_light = light_samples.max(1);
     let (mut ray, mut t0, mut t1) = (*ray, t_min, t_max);
     let mut l = Color::ZERO;
@@ -62,8 +81,12 @@ pub(super) fn li(
     // The solid-angle pdf of the BSDF sample that made `ray`.
     let mut bsdf_pdf = 0.0f32;
     let mut depth = 0;
+    let mut first = Some(first);
     loop {
-        let hit = scene.intersect(&ray, t0, t1);
+        let hit = match first.take() {
+            Some(hit) => hit,
+            None => scene.intersect(&ray, t0, t1),
+        };
         // ---- Quad lights met before the surface (they block nothing) ----
         let t_hit = hit.map_or(t1, |h| h.t);
         for light in &scene.lights {
@@ -129,6 +152,11 @@ fn next_event(
         let light_sampler = light.sampler();
         let n = if light.is_surface() { n_light } else { 1 };
         let mut acc = Color::ZERO;
+        // What an unoccluded sample of BRDF value `f` brings.
+        let unoccluded = |ls: &LightSample, f: Color| {
+            let w = if light.is_surface() { power_heuristic(n as f32, ls.pdf, 1.0, material.pdf(hit, wo, ls.direction)) } else { 1.0 };
+            f * ls.radiance * ls.direction.dot(hit.normal).abs() * w
+        };
         let mut visit = |ls: &LightSample, ray: Option<(Ray, f32)>, acc: &mut Color| {
             if ls.radiance == Color::ZERO || ls.pdf.is_nan() || ls.pdf <= 0.0 {
                 return;
@@ -142,8 +170,7 @@ fn next_event(
             if scene.occluded(&shadow, 0.0, t_max) {
                 return;
             }
-            let w = if light.is_surface() { power_heuristic(n as f32, ls.pdf, 1.0, material.pdf(hit, wo, ls.direction)) } else { 1.0 };
-            *acc += f * ls.radiance * ls.direction.dot(hit.normal).abs() * w;
+            *acc += unoccluded(ls, f);
         };
         if let LightSampler::Quad { .. } = light_sampler {
             // Sixteen samples set up at a time (`QuadBatch`), then used in order.
@@ -154,8 +181,32 @@ fn next_event(
                     *x = sampler.next_2d();
                 }
                 let batch = QuadBatch::new(&light_sampler, &shadow_rays, hit.normal, &xi);
-                for j in 0..count {
-                    visit(&batch.sample(j), batch.has_ray[j].then(|| batch.shadow_ray(j)), &mut acc);
+                // The samples `visit` would trace, their shadow rays traced as one packet,
+                // then summed in order as `visit` sums them.
+                let mut f = [Color::ZERO; BATCH];
+                let mut rays = [RaySegment { origin: Vec3::ZERO, t_min: 0.0, direction: Vec3::ZERO, t_max: 0.0 }; BATCH];
+                let mut lane_of = [0usize; BATCH];
+                let mut traced = 0;
+                for j in (0..count).filter(|&j| batch.has_ray[j]) {
+                    let ls = batch.sample(j);
+                    if ls.radiance == Color::ZERO || ls.pdf.is_nan() || ls.pdf <= 0.0 {
+                        continue;
+                    }
+                    f[j] = material.eval(hit, wo, ls.direction);
+                    if f[j] != Color::ZERO {
+                        let (ray, t_max) = batch.shadow_ray(j);
+                        (rays[traced], lane_of[traced]) =
+                            (RaySegment { origin: ray.origin, t_min: 0.0, direction: ray.direction, t_max }, j);
+                        traced += 1;
+                    }
+                }
+                counters.shadow += traced as u64;
+                let blocked = scene.occluded_packet(&rays[..traced]);
+                for (g, &j) in lane_of[..traced].iter().enumerate() {
+                    if blocked & (1 << g) == 0 {
+                        let ls = batch.sample(j);
+                        acc += unoccluded(&ls, f[j]);
+                    }
                 }
             }
         } else {

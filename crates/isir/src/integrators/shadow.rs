@@ -11,6 +11,7 @@
 
 use crate::geometry::Hit;
 use crate::lights::{LightSample, LightSampler};
+use crate::materials::Material;
 use crate::math::color::Color;
 use crate::math::ray::{round_away, Ray, RaySegment, ShadowRays};
 use glam::{Vec2, Vec3};
@@ -141,6 +142,25 @@ impl QuadBatch {
             radiance: at(&self.radiance),
             pdf: self.pdf[j],
         }
+    }
+
+    /// `material.shade(ray, hit, &self.sample(j))` for every sample `j` (`[axis][j]`), the
+    /// same floats, computed together ([`Material::shade_lanes`], for AVX2 where the CPU
+    /// has it).
+    pub(super) fn shade(&self, material: &Material, ray: &Ray, hit: &Hit) -> [[f32; BATCH]; 3] {
+        let mut out = [[0.0; BATCH]; 3];
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            #[target_feature(enable = "avx2")]
+            fn shade_avx2(b: &QuadBatch, material: &Material, ray: &Ray, hit: &Hit, out: &mut [[f32; BATCH]; 3]) {
+                material.shade_lanes(ray, hit, &b.wi, out);
+            }
+            // SAFETY: the CPU has AVX2, which is all `shade_avx2` is compiled for.
+            unsafe { shade_avx2(self, material, ray, hit, &mut out) };
+            return out;
+        }
+        material.shade_lanes(ray, hit, &self.wi, &mut out);
+        out
     }
 
     /// The radiance of sample `j`.
@@ -369,6 +389,87 @@ mod tests {
             }
         }
         assert!(live > 1000 && dead > 1000, "{live} {dead}");
+    }
+
+    /// A batch's shading is `Material::shade` of each sample, bit for bit, for every kind
+    /// of material, on the AVX2 path (where this CPU has it) and the portable one: samples
+    /// in front of and behind the surface, at grazing angles, straight above it, towards
+    /// the back of the light, and rays of any length.
+    #[test]
+    fn batch_shading_is_shade_of_each_sample() {
+        let materials = [
+            Material::Color(Vec3::new(0.2, 0.4, 0.8)),
+            Material::Lambert(Vec3::new(0.9, 0.5, 0.1)),
+            Material::Matte { kd: Vec3::new(0.5, 0.6, 0.7), sigma: 0.6 },
+            Material::Matte { kd: Vec3::ONE, sigma: 0.0 },
+            Material::Matte { kd: Vec3::ONE, sigma: 1.5 },
+            Material::Plastic { kd: Vec3::splat(0.5), ks: Vec3::ONE, shininess: 64.0, blinn: false },
+            Material::CookTorrance { kd: Vec3::splat(0.5), f0: Vec3::new(1.0, 0.85, 0.57), roughness: 0.3, metalness: 0.5 },
+            Material::Mirror,
+        ];
+        let light = Light::Quad {
+            corner: Vec3::new(-1.0, 3.0, -1.0),
+            u: Vec3::new(2.0, 0.0, 0.0),
+            v: Vec3::new(0.0, 0.5, 2.0),
+            color: Vec3::ONE,
+            power: 1.0,
+        }
+        .sampler();
+        let mut rng = Sampler::from_seed(11);
+        let (mut lit, mut unlit) = (0, 0);
+        for round in 0..3000 {
+            let mut r = || rng.next_f32() * 8.0 - 4.0;
+            let ng = Vec3::new(r(), r(), r()).normalize();
+            let normal = match round % 5 {
+                0 => Vec3::Y,
+                1 => -Vec3::Y,
+                _ => (ng + 0.2 * Vec3::new(r(), r(), r())).normalize(),
+            };
+            let p = Vec3::new(r(), r() * 0.5, r());
+            let hit = Hit {
+                t: 1.0,
+                point: p,
+                point_error: Vec3::ZERO,
+                normal,
+                geometric_normal: ng,
+                front_face: true,
+                object: 0,
+                prim: 0,
+                u: 0.0,
+                v: 0.0,
+                uv: Vec2::ZERO,
+                material: 0,
+            };
+            // The ray arrives from above, below, along the normal, or is long.
+            let d = match round % 4 {
+                0 => -normal * 3.0,
+                1 => Vec3::new(r(), r(), r()) * 100.0,
+                _ => Vec3::new(r(), r(), r()),
+            };
+            let ray = Ray::new(p - d, d);
+            let mut xi = [Vec2::ZERO; BATCH];
+            for x in &mut xi {
+                *x = Vec2::new(rng.next_f32(), rng.next_f32());
+            }
+            let batch = QuadBatch::new(&light, &ShadowRays::new(p, Vec3::ZERO, ng), normal, &xi);
+            let material = &materials[round % materials.len()];
+            let fast = batch.shade(material, &ray, &hit);
+            let mut portable = [[0.0; BATCH]; 3];
+            material.shade_lanes(&ray, &hit, &batch.wi, &mut portable);
+            for j in 0..BATCH {
+                let expected = material.shade(&ray, &hit, &batch.sample(j));
+                for (k, e) in expected.to_array().into_iter().enumerate() {
+                    assert_eq!(fast[k][j].to_bits(), e.to_bits(), "{material:?} {j}");
+                    assert_eq!(portable[k][j].to_bits(), e.to_bits(), "{material:?} {j}");
+                }
+                if expected == Vec3::ZERO {
+                    unlit += 1;
+                } else {
+                    lit += 1;
+                }
+            }
+        }
+        assert!(lit > 10_000 && unlit > 5_000, "{lit} {unlit}");
     }
 
     /// A point light's lanes are the samples and shadow rays of one hit at a time, bit for

@@ -95,6 +95,29 @@ fn trace(
     let Some(hit) = ctx.scene.intersect(ray, t_min, t_max) else {
         return ctx.scene.background;
     };
+    at_hit(ctx, ray, &hit, depth, weight, sampler, counters)
+}
+
+/// Whitted's colour of a camera ray whose closest hit is `hit` (found by
+/// [`Scene::intersect_lanes`]): what [`li`] returns for it once the hit is known.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn li_at_hit(
+    scene: &Scene,
+    ray: &Ray,
+    hit: &Hit,
+    light_samples: u32,
+    max_depth: u32,
+    sampler: &mut Sampler,
+    counters: &mut RayCounters,
+) -> Color {
+    at_hit(&Ctx { scene, light_samples, max_depth }, ray, hit, 0, 1.0, sampler, counters)
+}
+
+/// The colour along `ray` (`depth` bounces, `weight` of the camera ray's colour) whose
+/// closest hit is `hit`: direct lighting, or the specular recursion.
+#[allow(clippy::too_many_arguments)]
+fn at_hit(ctx: &Ctx, ray: &Ray, hit: &Hit, depth: u32, weight: f32, sampler: &mut Sampler, counters: &mut RayCounters) -> Color {
+    let hit = *hit;
     let material = ctx.scene.material(&hit);
     let wo = -ray.direction.normalize();
     let Some(split) = specular_split(material, &hit, wo) else {

@@ -43,6 +43,37 @@ pub fn oren_nayar(kd: Color, sigma: f32, n: Vec3, wo: Vec3, wi: Vec3) -> Color {
     kd * FRAC_1_PI * (a + b * cos_phi * sin_alpha * tan_beta)
 }
 
+/// [`oren_nayar`] for `N` incoming directions at once (`wi[axis][j]`), into `out[axis][j]`:
+/// the same operations in the same order on each lane, so the same floats, as straight-line
+/// loops the compiler vectorises (the caller decides for which instruction set).
+#[inline(always)]
+#[allow(clippy::needless_range_loop)] // one index into many arrays: the loops vectorise
+pub fn oren_nayar_lanes<const N: usize>(kd: Color, sigma: f32, n: Vec3, wo: Vec3, wi: &[[f32; N]; 3], out: &mut [[f32; N]; 3]) {
+    let cos_o = n.dot(wo);
+    let s2 = sigma * sigma;
+    let a = 1.0 - 0.5 * s2 / (s2 + 0.33);
+    let b = 0.45 * s2 / (s2 + 0.09);
+    let to = wo - n * cos_o;
+    let lo = to.length();
+    let kd_pi = (kd * FRAC_1_PI).to_array();
+    for j in 0..N {
+        let (x, y, z) = (wi[0][j], wi[1][j], wi[2][j]);
+        let cos_i = n.x * x + n.y * y + n.z * z;
+        let (tx, ty, tz) = (x - n.x * cos_i, y - n.y * cos_i, z - n.z * cos_i);
+        let li = (tx * tx + ty * ty + tz * tz).sqrt();
+        let dot = tx * to.x + ty * to.y + tz * to.z;
+        let cos_phi = if li > 1e-6 && lo > 1e-6 { (dot / (li * lo)).max(0.0) } else { 0.0 };
+        let (cos_alpha, cos_beta) = (cos_i.min(cos_o).min(1.0), cos_i.max(cos_o).min(1.0));
+        let sin_alpha = (1.0 - cos_alpha * cos_alpha).max(0.0).sqrt();
+        let tan_beta = (1.0 - cos_beta * cos_beta).max(0.0).sqrt() / cos_beta.max(MIN_COS);
+        let f = a + b * cos_phi * sin_alpha * tan_beta;
+        let lit = !(cos_i <= 0.0 || cos_o <= 0.0);
+        for k in 0..3 {
+            out[k][j] = if lit { kd_pi[k] * f } else { 0.0 };
+        }
+    }
+}
+
 /// The cosine of the course's Phong angle: between `ωo` and the mirror of `ωi` (Phong),
 /// or between `n` and the half vector (Blinn–Phong).
 #[must_use]

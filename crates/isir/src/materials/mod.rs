@@ -21,8 +21,8 @@ mod texture;
 pub use texture::{srgb_to_linear, Texture, MAX_TEXELS};
 
 pub use lobes::{
-    cook_torrance_spec, ggx_d, ggx_visible_pdf, oren_nayar, phong_cos, phong_lobe_pdf, plastic, sample_ggx_visible, sample_phong_lobe,
-    schlick_fresnel, schlick_ggx,
+    cook_torrance_spec, ggx_d, ggx_visible_pdf, oren_nayar, oren_nayar_lanes, phong_cos, phong_lobe_pdf, plastic, sample_ggx_visible,
+    sample_phong_lobe, schlick_fresnel, schlick_ggx,
 };
 
 use crate::geometry::Hit;
@@ -143,12 +143,34 @@ impl Material {
     /// `light.direction` and leaving towards the ray's origin.
     #[must_use]
     pub fn shade(&self, ray: &Ray, hit: &Hit, light: &LightSample) -> Color {
+        self.shade_from(ray, hit, light.direction)
+    }
+
+    /// [`Material::shade`] for light arriving along `wi` (all it needs of the sample).
+    #[inline]
+    fn shade_from(&self, ray: &Ray, hit: &Hit, wi: Vec3) -> Color {
         match self {
             Material::Color(c) => *c,
             Material::Textured { .. } => self.color_at(hit),
             Material::Lambert(kd) => *kd * FRAC_1_PI,
             Material::Mirror | Material::Transparent { .. } => BLACK,
-            _ => self.brdf(hit.normal, -ray.direction.normalize_or_zero(), light.direction),
+            _ => self.brdf(hit.normal, -ray.direction.normalize_or_zero(), wi),
+        }
+    }
+
+    /// [`Material::shade`] for `N` light samples at once, by their directions
+    /// (`wi[axis][j]`), into `out[axis][j]`: the same floats. Oren–Nayar in straight-line
+    /// loops the compiler vectorises (for the instruction set of the caller), the other
+    /// materials one sample after another.
+    #[inline(always)]
+    pub fn shade_lanes<const N: usize>(&self, ray: &Ray, hit: &Hit, wi: &[[f32; N]; 3], out: &mut [[f32; N]; 3]) {
+        if let Material::Matte { kd, sigma } = *self {
+            oren_nayar_lanes(kd, sigma, hit.normal, -ray.direction.normalize_or_zero(), wi, out);
+            return;
+        }
+        for j in 0..N {
+            let c = self.shade_from(ray, hit, Vec3::new(wi[0][j], wi[1][j], wi[2][j]));
+            (out[0][j], out[1][j], out[2][j]) = (c.x, c.y, c.z);
         }
     }
 
