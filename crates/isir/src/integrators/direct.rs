@@ -1,7 +1,7 @@
 //! The course's direct lighting: for each light, the average over its samples of
 //! `shade · radiance · cos`, a sample counting only when its shadow ray reaches the light.
 
-use super::shadow::{QuadBatch, BATCH};
+use super::shadow::{QuadBatch, BATCH, BATCH_FROM};
 use super::RayCounters;
 use crate::geometry::Hit;
 use crate::lights::LightSampler;
@@ -45,27 +45,44 @@ pub(super) fn direct_lighting(
     for light in &scene.lights {
         let light_sampler = light.sampler();
         let n = if light.is_surface() { light_samples.max(1) } else { 1 };
-        let mut sum = Color::ZERO;
-        if let LightSampler::Quad { .. } = light_sampler {
-            li += quad_light(scene, ray, hit, material, &light_sampler, &shadow_rays, n, sampler, counters);
-            continue;
-        }
-        for _ in 0..n {
-            let ls = light_sampler.sample(hit.point, sampler.next_2d());
-            let cos = ls.direction.dot(hit.normal).max(0.0);
-            if cos == 0.0 || ls.radiance == Color::ZERO {
-                continue;
+        li += match light_sampler {
+            LightSampler::Quad { .. } if n >= BATCH_FROM => {
+                quad_light(scene, ray, hit, material, &light_sampler, &shadow_rays, n, sampler, counters)
             }
-            // ---- Shadow ray, from outside the hit point's error bound on the light's side ----
-            let Some((shadow, t_max)) = shadow_rays.to(ls.point) else { continue };
-            counters.shadow += 1;
-            if !scene.occluded(&shadow, 0.0, t_max) {
-                sum += material.shade(ray, hit, &ls) * ls.radiance * cos;
-            }
-        }
-        li += sum / n as f32;
+            _ => one_light(scene, ray, hit, material, &light_sampler, &mut shadow_rays, n, sampler, counters),
+        };
     }
     li
+}
+
+/// One light's average over its `n` samples, one sample at a time.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn one_light(
+    scene: &Scene,
+    ray: &Ray,
+    hit: &Hit,
+    material: &Material,
+    light_sampler: &LightSampler,
+    shadow_rays: &mut ShadowRays,
+    n: u32,
+    sampler: &mut Sampler,
+    counters: &mut RayCounters,
+) -> Color {
+    let mut sum = Color::ZERO;
+    for _ in 0..n {
+        let ls = light_sampler.sample(hit.point, sampler.next_2d());
+        let cos = ls.direction.dot(hit.normal).max(0.0);
+        if cos == 0.0 || ls.radiance == Color::ZERO {
+            continue;
+        }
+        // ---- Shadow ray, from outside the hit point's error bound on the light's side ----
+        let Some((shadow, t_max)) = shadow_rays.to(ls.point) else { continue };
+        counters.shadow += 1;
+        if !scene.occluded(&shadow, 0.0, t_max) {
+            sum += material.shade(ray, hit, &ls) * ls.radiance * cos;
+        }
+    }
+    sum / n as f32
 }
 
 /// A quad light's average over its `n` samples: sixteen samples at a time, set up together

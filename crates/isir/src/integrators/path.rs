@@ -9,7 +9,7 @@
 //! direct-lighting integrator's image. Point lights are met by next-event estimation
 //! only. The background is a uniform environment: any ray leaving the scene brings it.
 
-use super::shadow::{QuadBatch, BATCH};
+use super::shadow::{QuadBatch, BATCH, BATCH_FROM};
 use super::RayCounters;
 use crate::geometry::Hit;
 use crate::lights::{LightSample, LightSampler};
@@ -52,86 +52,97 @@ pub(super) fn li(
     counters: &mut RayCounters,
 ) -> Color {
     counters.primary += 1;
-    let first = scene.intersect(ray, t_min, t_max);
-    li_from_first_hit(scene, ray, t_min, t_max, first, light_samples, max_depth, sampler, counters)
+    let mut path = Path::new(ray, t_min, t_max);
+    while path.step(scene, scene.intersect(&path.ray, path.t_min, path.t_max), light_samples, max_depth, sampler, counters) {}
+    path.l
 }
 
-/// The path tracer's colour of a camera ray whose closest hit in `[t_min, t_max)` is
-/// `first` (found by [`Scene::intersect_lanes`]): what [`li`] returns for it once that hit
-/// is known.
-#[allow(clippy::too_many_arguments)]
-pub(super) fn li_from_first_hit(
-    scene: &Scene,
-    ray: &Ray,
-    t_min: f32,
-    t_max: f32,
-    first: Option<Hit>,
-    light_samples: u32,
-    max_depth: u32,
-    sampler: &mut Sampler,
-    counters: &mut RayCounters,
-) -> Color {
-    let n_light = light_samples.max(1);
-    let (mut ray, mut t0, mut t1) = (*ray, t_min, t_max);
-    let mut l = Color::ZERO;
-    let mut beta = Color::ONE;
-    // The camera ray and rays from delta lobes: emitters they meet count fully (no light
-    // sampling could have found them).
-    let mut specular = true;
-    // The solid-angle pdf of the BSDF sample that made `ray`.
-    let mut bsdf_pdf = 0.0f32;
-    let mut depth = 0;
-    let mut first = Some(first);
-    loop {
-        let hit = match first.take() {
-            Some(hit) => hit,
-            None => scene.intersect(&ray, t0, t1),
-        };
+/// A path being traced: the ray to follow next and what the path has gathered so far.
+/// [`li`] steps one path to its end; the lanes step sixteen side by side, their rays'
+/// closest hits found together.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Path {
+    /// The ray to follow, in `[t_min, t_max)`.
+    pub(super) ray: Ray,
+    pub(super) t_min: f32,
+    pub(super) t_max: f32,
+    /// The radiance gathered.
+    pub(super) l: Color,
+    /// The throughput.
+    beta: Color,
+    /// The camera ray and rays from delta lobes: emitters they meet count fully (no light
+    /// sampling could have found them).
+    specular: bool,
+    /// The solid-angle pdf of the BSDF sample that made `ray`.
+    bsdf_pdf: f32,
+    /// BSDF-sampled rays so far.
+    depth: u32,
+}
+
+impl Path {
+    /// A path starting with the camera ray `ray`.
+    pub(super) fn new(ray: &Ray, t_min: f32, t_max: f32) -> Path {
+        Path { ray: *ray, t_min, t_max, l: Color::ZERO, beta: Color::ONE, specular: true, bsdf_pdf: 0.0, depth: 0 }
+    }
+
+    /// One vertex: `hit` is the closest hit of `self.ray`. Gathers the light met there and
+    /// sets up the next ray; false when the path ends.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn step(
+        &mut self,
+        scene: &Scene,
+        hit: Option<Hit>,
+        light_samples: u32,
+        max_depth: u32,
+        sampler: &mut Sampler,
+        counters: &mut RayCounters,
+    ) -> bool {
+        let n_light = light_samples.max(1);
         // ---- Quad lights met before the surface (they block nothing) ----
-        let t_hit = hit.map_or(t1, |h| h.t);
+        let t_hit = hit.map_or(self.t_max, |h| h.t);
         for light in &scene.lights {
-            if let Some(lh) = light.intersect(&ray, t0, t_hit) {
+            if let Some(lh) = light.intersect(&self.ray, self.t_min, t_hit) {
                 if lh.emitted != Color::ZERO {
-                    let w = if specular { 1.0 } else { power_heuristic(1.0, bsdf_pdf, n_light as f32, lh.pdf) };
-                    l += beta * lh.emitted * w;
+                    let w = if self.specular { 1.0 } else { power_heuristic(1.0, self.bsdf_pdf, n_light as f32, lh.pdf) };
+                    self.l += self.beta * lh.emitted * w;
                 }
             }
         }
         let Some(hit) = hit else {
-            l += beta * scene.background;
-            break;
+            self.l += self.beta * scene.background;
+            return false;
         };
-        if depth >= max_depth {
-            break;
+        if self.depth >= max_depth {
+            return false;
         }
         let material = scene.material(&hit);
-        let wo = -ray.direction.normalize();
+        let wo = -self.ray.direction.normalize();
         if !material.is_delta() {
-            l += beta * next_event(scene, &hit, material, wo, n_light, sampler, counters);
+            self.l += self.beta * next_event(scene, &hit, material, wo, n_light, sampler, counters);
         }
         // ---- The next direction ----
         let (u_lobe, u) = (sampler.next_f32(), sampler.next_2d());
-        let Some(bs) = material.sample(&hit, wo, u_lobe, u) else { break };
+        let Some(bs) = material.sample(&hit, wo, u_lobe, u) else { return false };
         if bs.weight == Color::ZERO || !(bs.delta || bs.pdf > 0.0) {
-            break;
+            return false;
         }
-        beta *= bs.weight;
-        specular = bs.delta;
-        bsdf_pdf = bs.pdf;
-        depth += 1;
-        if depth > ROULETTE_DEPTH {
+        self.beta *= bs.weight;
+        self.specular = bs.delta;
+        self.bsdf_pdf = bs.pdf;
+        self.depth += 1;
+        if self.depth > ROULETTE_DEPTH {
             // Survive with probability max(β) (capped at 1) and carry 1/p more: unbiased.
-            let p = beta.max_element().min(1.0);
+            let p = self.beta.max_element().min(1.0);
             if p.is_nan() || sampler.next_f32() >= p {
-                break;
+                return false;
             }
-            beta /= p;
+            self.beta /= p;
         }
         counters.secondary += 1;
-        ray = hit.spawn_ray(bs.wi);
-        (t0, t1) = (0.0, f32::INFINITY);
+        self.ray = hit.spawn_ray(bs.wi);
+        (self.t_min, self.t_max) = (0.0, f32::INFINITY);
+        true
     }
-    l
 }
 
 /// Light arriving at `hit` straight from the lights and leaving towards `wo`: for each
@@ -172,7 +183,7 @@ fn next_event(
             }
             *acc += unoccluded(ls, f);
         };
-        if let LightSampler::Quad { .. } = light_sampler {
+        if matches!(light_sampler, LightSampler::Quad { .. }) && n >= BATCH_FROM {
             // Sixteen samples set up at a time (`QuadBatch`), then used in order.
             let mut xi = [Vec2::ZERO; BATCH];
             for first in (0..n).step_by(BATCH) {

@@ -19,6 +19,12 @@ use glam::{Vec2, Vec3};
 /// Samples per batch.
 pub(super) const BATCH: usize = 16;
 
+/// The fewest samples of a quad light set up as a batch; fewer go one at a time.
+/// PERF: a batch computes all sixteen lanes whatever the count: with one light sample (the
+/// path tracer as Mitsuba runs it) `QuadBatch::new` and the zeroing of its arrays were
+/// 19% of the time (tp6-matte-quad, path, Lambert).
+pub(super) const BATCH_FROM: u32 = 4;
+
 /// Up to [`BATCH`] samples of a quad light from one hit, and their shadow rays.
 pub(super) struct QuadBatch {
     point: [[f32; BATCH]; 3],
