@@ -160,13 +160,25 @@ impl Material {
 
     /// [`Material::shade`] for `N` light samples at once, by their directions
     /// (`wi[axis][j]`), into `out[axis][j]`: the same floats. Oren–Nayar in straight-line
-    /// loops the compiler vectorises (for the instruction set of the caller), the other
-    /// materials one sample after another.
+    /// loops the compiler vectorises (for the instruction set of the caller), materials
+    /// that do not depend on the direction once, Phong and Cook–Torrance one sample after
+    /// another.
     #[inline(always)]
     pub fn shade_lanes<const N: usize>(&self, ray: &Ray, hit: &Hit, wi: &[[f32; N]; 3], out: &mut [[f32; N]; 3]) {
-        if let Material::Matte { kd, sigma } = *self {
-            oren_nayar_lanes(kd, sigma, hit.normal, -ray.direction.normalize_or_zero(), wi, out);
-            return;
+        match *self {
+            Material::Matte { kd, sigma } => {
+                oren_nayar_lanes(kd, sigma, hit.normal, -ray.direction.normalize_or_zero(), wi, out);
+                return;
+            }
+            Material::Color(_) | Material::Textured { .. } | Material::Lambert(_) | Material::Mirror | Material::Transparent { .. } => {
+                // The same for every direction.
+                let c = self.shade_from(ray, hit, Vec3::Z).to_array();
+                for k in 0..3 {
+                    out[k] = [c[k]; N];
+                }
+                return;
+            }
+            Material::Plastic { .. } | Material::CookTorrance { .. } => {}
         }
         for j in 0..N {
             let c = self.shade_from(ray, hit, Vec3::new(wi[0][j], wi[1][j], wi[2][j]));
