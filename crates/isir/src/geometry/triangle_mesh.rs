@@ -464,6 +464,16 @@ impl TriangleMesh {
         }
     }
 
+    /// [`TriangleMesh::intersect`] for a ray that [`TriangleMesh::may_hit_lanes`] let
+    /// through: the same hit, without testing the box again.
+    #[inline]
+    pub(crate) fn intersect_near(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<MeshHit> {
+        match &self.accel {
+            MeshAccel::Wide(w) => w.intersect(ray, t_min, t_max),
+            _ => self.intersect(ray, t_min, t_max),
+        }
+    }
+
     /// [`TriangleMesh::intersect`], and what finding the hit cost: nodes visited (binary
     /// nodes for `bvh-mid`, 8-wide nodes for `bvh-sah`, the mesh's box for `aabb`) and
     /// triangle tests (all of them for `none` and, when the box is hit, `aabb`; four per

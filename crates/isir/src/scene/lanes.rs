@@ -80,6 +80,17 @@ impl Scene {
             match &object.geometry {
                 Geometry::Sphere(s) => mark(s.closest_lanes(rays, &mut t_best), &mut hits),
                 Geometry::Plane(p) => mark(p.closest_lanes(rays, &mut t_best), &mut hits),
+                Geometry::Mesh(m) => {
+                    // The mesh's box against all the lanes at once, then the lanes that may
+                    // meet it one by one.
+                    let near = m.may_hit_lanes(rays);
+                    for k in (0..count).filter(|&k| valid[k] && near & (1 << k) != 0) {
+                        if let Some(h) = m.intersect_near(&rays.ray(k), rays.t_min[k], t_best[k]) {
+                            t_best[k] = h.t;
+                            (hits.object[k], hits.prim[k], hits.u[k], hits.v[k]) = (i as u32, h.prim, h.u, h.v);
+                        }
+                    }
+                }
                 _ => {
                     for k in (0..count).filter(|&k| valid[k]) {
                         if let Some((t, prim, u, v)) = self.hit_object(i, &rays.ray(k), rays.t_min[k], t_best[k]) {
