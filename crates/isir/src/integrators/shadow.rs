@@ -397,6 +397,25 @@ mod tests {
         assert!(live > 1000 && dead > 1000, "{live} {dead}");
     }
 
+    /// A hit at `point` (error bound `point_error`) with shading normal `normal` and
+    /// geometric normal `ng`.
+    fn test_hit(point: Vec3, point_error: Vec3, normal: Vec3, ng: Vec3) -> Hit {
+        Hit {
+            t: 1.0,
+            point,
+            point_error,
+            normal,
+            geometric_normal: ng,
+            front_face: true,
+            object: 0,
+            prim: 0,
+            u: 0.0,
+            v: 0.0,
+            uv: Vec2::ZERO,
+            material: 0,
+        }
+    }
+
     /// A batch's shading is `Material::shade` of each sample, bit for bit, for every kind
     /// of material, on the AVX2 path (where this CPU has it) and the portable one: samples
     /// in front of and behind the surface, at grazing angles, straight above it, towards
@@ -432,20 +451,7 @@ mod tests {
                 _ => (ng + 0.2 * Vec3::new(r(), r(), r())).normalize(),
             };
             let p = Vec3::new(r(), r() * 0.5, r());
-            let hit = Hit {
-                t: 1.0,
-                point: p,
-                point_error: Vec3::ZERO,
-                normal,
-                geometric_normal: ng,
-                front_face: true,
-                object: 0,
-                prim: 0,
-                u: 0.0,
-                v: 0.0,
-                uv: Vec2::ZERO,
-                material: 0,
-            };
+            let hit = test_hit(p, Vec3::ZERO, normal, ng);
             // The ray arrives from above, below, along the normal, or is long.
             let d = match round % 4 {
                 0 => -normal * 3.0,
@@ -497,20 +503,8 @@ mod tests {
                     2 => position * 1e5,
                     _ => Vec3::new(r(), r(), r()),
                 };
-                Some(Hit {
-                    t: 1.0,
-                    point,
-                    point_error: Vec3::new(r().abs(), r().abs(), r().abs()) * 1e-6,
-                    normal: (ng + 0.3 * Vec3::new(r(), r(), r())).normalize(),
-                    geometric_normal: ng,
-                    front_face: true,
-                    object: 0,
-                    prim: 0,
-                    u: 0.0,
-                    v: 0.0,
-                    uv: Vec2::ZERO,
-                    material: 0,
-                })
+                let point_error = Vec3::new(r().abs(), r().abs(), r().abs()) * 1e-6;
+                Some(test_hit(point, point_error, (ng + 0.3 * Vec3::new(r(), r(), r())).normalize(), ng))
             });
             let batch = PointBatch::new(&light, &hits);
             let portable = PointBatch::new_portable(&light, &hits);
