@@ -46,9 +46,7 @@ pub(super) fn direct_lighting(
         let light_sampler = light.sampler();
         let n = if light.is_surface() { light_samples.max(1) } else { 1 };
         li += match light_sampler {
-            LightSampler::Quad { .. } if n >= BATCH_FROM => {
-                quad_light(scene, ray, hit, material, &light_sampler, &shadow_rays, n, sampler, counters)
-            }
+            LightSampler::Quad { .. } => quad_light(scene, ray, hit, material, &light_sampler, &mut shadow_rays, n, sampler, counters),
             _ => one_light(scene, ray, hit, material, &light_sampler, &mut shadow_rays, n, sampler, counters),
         };
     }
@@ -86,7 +84,8 @@ pub(super) fn one_light(
 }
 
 /// A quad light's average over its `n` samples: sixteen samples at a time, set up together
-/// ([`QuadBatch`]), then traced and summed in order (the same sum as one sample at a time).
+/// ([`QuadBatch`]), then traced and summed in order (the same sum as one sample at a time);
+/// fewer than [`BATCH_FROM`] samples one at a time ([`one_light`]).
 /// PERF: out of line, so that point lights keep a small `direct_lighting` (inlined, it made
 /// point-light scenes 20% slower).
 #[inline(never)]
@@ -97,11 +96,14 @@ pub(super) fn quad_light(
     hit: &Hit,
     material: &Material,
     light_sampler: &LightSampler,
-    shadow_rays: &ShadowRays,
+    shadow_rays: &mut ShadowRays,
     n: u32,
     sampler: &mut Sampler,
     counters: &mut RayCounters,
 ) -> Color {
+    if n < BATCH_FROM {
+        return one_light(scene, ray, hit, material, light_sampler, shadow_rays, n, sampler, counters);
+    }
     let mut sum = Color::ZERO;
     let mut xi = [Vec2::ZERO; BATCH];
     for first in (0..n).step_by(BATCH) {

@@ -3,17 +3,17 @@
 //! lane's surface interaction and shading is the course's code, one lane after another;
 //! the shadow rays of all the lanes towards one point light go to one
 //! [`Scene::occluded_packet`]. Whitted's mirrors and glass recurse, and the path tracer
-//! follows its paths, one lane at a time from the first hit on. Every lane's colour is the one [`Integrator::li`] returns
-//! for its ray and sampler, bit for bit: the same operations on the same floats, only
-//! grouped differently.
+//! follows its paths, one lane at a time from the first hit on. Every lane's colour is the
+//! one [`Integrator::li`] returns for its ray and sampler, bit for bit: the same operations
+//! on the same floats, only grouped differently.
 //!
 //! PERF: one sample at a time, the pipeline is a chain of latencies (a division to decide
 //! a branch, a square root to normalise, a store read back): samples side by side let the
 //! CPU overlap them, and spheres and planes are tested against all the lanes at once.
 
-use super::direct::{one_light, quad_light};
+use super::direct::quad_light;
 use super::path::Path;
-use super::shadow::{PointBatch, BATCH_FROM};
+use super::shadow::PointBatch;
 use super::{whitted, Integrator, RayCounters};
 use crate::geometry::Hit;
 use crate::lights::LightSampler;
@@ -67,7 +67,7 @@ impl Integrator {
 /// The path tracer's paths from their first hits, found in lanes: each path then goes to
 /// its end on its own ([`Path::step`]).
 /// PERF: stepping the sixteen paths side by side, every bounce's hits from one
-/// `intersect_lanes`, was 12-14% slower on the TP6 room (incoherent rays meet spheres
+/// `intersect_lanes`, was 11-14% slower on the TP6 room (incoherent rays meet spheres
 /// and planes no faster in lanes, and each bounce gathers and scatters the lanes).
 #[allow(clippy::too_many_arguments)]
 fn path_lanes(
@@ -115,12 +115,8 @@ fn direct_lanes(
             let m = light_samples.max(1);
             for k in 0..n {
                 if let (Some(hit), Some(sr)) = (&hits[k], &mut shadow_rays[k]) {
-                    let (ray, material, sampler) = (rays.ray(k), scene.material(hit), &mut samplers[k]);
-                    li[k] += if m >= BATCH_FROM {
-                        quad_light(scene, &ray, hit, material, &light_sampler, sr, m, sampler, counters)
-                    } else {
-                        one_light(scene, &ray, hit, material, &light_sampler, sr, m, sampler, counters)
-                    };
+                    let material = scene.material(hit);
+                    li[k] += quad_light(scene, &rays.ray(k), hit, material, &light_sampler, sr, m, &mut samplers[k], counters);
                 }
             }
             continue;

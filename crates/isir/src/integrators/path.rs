@@ -58,8 +58,8 @@ pub(super) fn li(
 }
 
 /// A path being traced: the ray to follow next and what the path has gathered so far.
-/// [`li`] steps one path to its end; the lanes step sixteen side by side, their rays'
-/// closest hits found together.
+/// [`li`] steps one path to its end; the lanes step each of sixteen paths to its end from
+/// a first hit found together with the others'.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Path {
     /// The ray to follow, in `[t_min, t_max)`.
@@ -168,14 +168,16 @@ fn next_event(
             let w = if light.is_surface() { power_heuristic(n as f32, ls.pdf, 1.0, material.pdf(hit, wo, ls.direction)) } else { 1.0 };
             f * ls.radiance * ls.direction.dot(hit.normal).abs() * w
         };
-        let mut visit = |ls: &LightSample, ray: Option<(Ray, f32)>, acc: &mut Color| {
+        // The BRDF value of a sample worth a shadow ray (some radiance, a valid pdf, a
+        // nonzero BRDF).
+        let traced_f = |ls: &LightSample| {
             if ls.radiance == Color::ZERO || ls.pdf.is_nan() || ls.pdf <= 0.0 {
-                return;
+                return None;
             }
-            let f = material.eval(hit, wo, ls.direction);
-            if f == Color::ZERO {
-                return;
-            }
+            Some(material.eval(hit, wo, ls.direction)).filter(|&f| f != Color::ZERO)
+        };
+        let mut visit = |ls: &LightSample, ray: Option<(Ray, f32)>, acc: &mut Color| {
+            let Some(f) = traced_f(ls) else { return };
             let Some((shadow, t_max)) = ray else { return };
             counters.shadow += 1;
             if scene.occluded(&shadow, 0.0, t_max) {
@@ -199,13 +201,9 @@ fn next_event(
                 let mut lane_of = [0usize; BATCH];
                 let mut traced = 0;
                 for j in (0..count).filter(|&j| batch.has_ray[j]) {
-                    let ls = batch.sample(j);
-                    if ls.radiance == Color::ZERO || ls.pdf.is_nan() || ls.pdf <= 0.0 {
-                        continue;
-                    }
-                    f[j] = material.eval(hit, wo, ls.direction);
-                    if f[j] != Color::ZERO {
+                    if let Some(fj) = traced_f(&batch.sample(j)) {
                         let (ray, t_max) = batch.shadow_ray(j);
+                        f[j] = fj;
                         (rays[traced], lane_of[traced]) =
                             (RaySegment { origin: ray.origin, t_min: 0.0, direction: ray.direction, t_max }, j);
                         traced += 1;
