@@ -130,7 +130,8 @@ pub(super) fn tri4_watertight(tri: &Tri4, w: &WatertightRay, t_min: f32, t_max: 
     tri4_lanes(tri, t_min, t_max, |v0, v1, v2, t0, t1| w.intersect(v0, v1, v2, t0, t1))
 }
 
-/// The slab test of one ray against a node's eight boxes.
+/// The slab test of one ray against a node's eight boxes: the hit lanes' mask, their
+/// entry distances in `dist`.
 ///
 /// # Safety
 /// The CPU must have AVX2 and FMA, and `pre` must come from [`RayPre::new`] (its
@@ -138,6 +139,28 @@ pub(super) fn tri4_watertight(tri: &Tri4, w: &WatertightRay, t_min: f32, t_max: 
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
 pub(super) unsafe fn box_test_avx2(node: &Node8, pre: &RayPre, t_min: f32, t_max: f32, dist: &mut [f32; 8]) -> u32 {
+    use std::arch::x86_64::*;
+    // SAFETY: the caller guarantees AVX2, FMA and `pre`.
+    unsafe {
+        let (near, hit) = box_lanes_avx2(node, pre, t_min, t_max);
+        _mm256_storeu_ps(dist.as_mut_ptr(), near);
+        _mm256_movemask_ps(hit) as u32
+    }
+}
+
+/// [`box_test_avx2`] in registers: the (widened) entry distances and the hit lanes (all
+/// bits set).
+///
+/// # Safety
+/// As for [`box_test_avx2`].
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+pub(super) unsafe fn box_lanes_avx2(
+    node: &Node8,
+    pre: &RayPre,
+    t_min: f32,
+    t_max: f32,
+) -> (std::arch::x86_64::__m256, std::arch::x86_64::__m256) {
     use std::arch::x86_64::*;
     // SAFETY: the caller guarantees AVX2 and FMA. `near_far` holds offsets of planes
     // (`[f32; 8]` at multiples of 32 bytes) inside the 32-byte aligned `Node8`, so the
@@ -169,17 +192,14 @@ pub(super) unsafe fn box_test_avx2(node: &Node8, pre: &RayPre, t_min: f32, t_max
             let too_far = _mm256_cmpgt_epi32(ni, _mm256_add_epi32(fi, _mm256_add_epi32(ulps, ulps)));
             let neg_zero = _mm256_cmpeq_epi32(fi, _mm256_set1_epi32(i32::MIN));
             let lowered = _mm256_sub_epi32(_mm256_max_epi32(ni, ulps), ulps);
-            _mm256_storeu_si256(dist.as_mut_ptr().cast(), lowered);
-            let reject = _mm256_movemask_ps(_mm256_castsi256_ps(too_far)) as u32;
-            return (!reject & 0xFF) | _mm256_movemask_ps(_mm256_castsi256_ps(neg_zero)) as u32;
-        } else {
-            let widen = _mm256_set1_ps(WIDEN);
-            let sign = _mm256_set1_ps(-0.0);
-            near = _mm256_fnmadd_ps(_mm256_andnot_ps(sign, near), widen, near);
-            far = _mm256_fmadd_ps(_mm256_andnot_ps(sign, far), widen, far);
+            let hit = _mm256_or_si256(_mm256_andnot_si256(too_far, _mm256_set1_epi32(-1)), neg_zero);
+            return (_mm256_castsi256_ps(lowered), _mm256_castsi256_ps(hit));
         }
-        _mm256_storeu_ps(dist.as_mut_ptr(), near);
-        _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, far)) as u32
+        let widen = _mm256_set1_ps(WIDEN);
+        let sign = _mm256_set1_ps(-0.0);
+        near = _mm256_fnmadd_ps(_mm256_andnot_ps(sign, near), widen, near);
+        far = _mm256_fmadd_ps(_mm256_andnot_ps(sign, far), widen, far);
+        (near, _mm256_cmp_ps::<_CMP_LE_OQ>(near, far))
     }
 }
 

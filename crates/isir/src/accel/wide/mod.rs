@@ -25,6 +25,7 @@
 
 mod collapse;
 mod kernels;
+pub(crate) mod stream;
 #[cfg(test)]
 mod tests;
 mod traverse;

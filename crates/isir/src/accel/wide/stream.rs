@@ -1,0 +1,173 @@
+//! Streams: up to sixteen rays walked down the tree together, each node's eight boxes
+//! tested with AVX2 against one ray at a time (after Embree's stream mode). The rays
+//! share every node fetch, every push and pop and every leaf visit, and the box tests of
+//! different rays do not wait on one another, where a single ray waits on each node's
+//! load before it can choose the next. Each ray keeps its own interval; a bit mask per
+//! stack entry says which rays entered that subtree.
+//!
+//! The box and triangle tests are the single-ray kernels, so a stream's any-hit answers
+//! are exactly those of [`WideBvh::occluded`]; its closest hits are those of
+//! [`WideBvh::intersect`] except, on an exact tie of two triangles' distances, which of
+//! them is reported (the visiting order differs).
+
+use super::kernels::*;
+use super::traverse::{nearer_count, sort_keys};
+use super::*;
+use crate::math::ray::RaySegment;
+
+/// Rays per stream (the width of the masks).
+pub(crate) const STREAM: usize = 16;
+
+impl WideBvh {
+    /// Trace up to [`STREAM`] rays: with `ANY`, each stops at its first hit. `out[i]` gets
+    /// ray `i`'s hit; invalid rays (see [`Ray::is_valid`]) get `None`.
+    ///
+    /// # Safety
+    /// The CPU must have what [`SimdLevel::Avx2`] names, and the tree must not be
+    /// watertight (the stream has only the Möller–Trumbore block test).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma,popcnt,bmi1,lzcnt")]
+    pub(crate) unsafe fn stream_avx2<const ANY: bool>(&self, rays: &[RaySegment], out: &mut [Option<MeshHit>]) {
+        use std::arch::x86_64::*;
+        debug_assert!(rays.len() <= STREAM && out.len() >= rays.len() && !self.watertight);
+        let mut pre: [std::mem::MaybeUninit<RayPre>; STREAM] = [const { std::mem::MaybeUninit::uninit() }; STREAM];
+        let mut t_min = [0f32; STREAM];
+        let mut t_best = [0f32; STREAM];
+        let mut live: u32 = 0;
+        for (i, r) in rays.iter().enumerate() {
+            out[i] = None;
+            let ray = r.ray();
+            if self.root == EMPTY || !ray.is_valid() {
+                continue;
+            }
+            pre[i].write(RayPre::new(&ray));
+            (t_min[i], t_best[i]) = (r.t_min, r.t_max);
+            live |= 1 << i;
+        }
+        // SAFETY: read only for rays in `live`, which were all written above.
+        let pre = |i: usize| unsafe { pre.get_unchecked(i).assume_init_ref() };
+        let mut stack = [const { std::mem::MaybeUninit::<(u32, u32)>::uninit() }; STACK_SIZE];
+        let mut sp = 0usize;
+        let mut cur = self.root;
+        let mut cur_mask = live;
+        'walk: loop {
+            if cur & LEAF == 0 {
+                // ---- Inner node: each ray's test of the eight boxes ----
+                // SAFETY: inner-node codes are byte offsets of nodes, written by `convert`.
+                let node = unsafe { self.node_at(cur) };
+                // Per child: the rays that enter it (bit i for ray i), and the nearest of
+                // their entry distances, by which the children are ordered.
+                // SAFETY: the CPU has AVX2 (this function's features).
+                let (mut rays_in, mut nearest) = (_mm256_setzero_si256(), _mm256_set1_ps(f32::INFINITY));
+                let mut m = cur_mask;
+                while m != 0 {
+                    let i = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    // SAFETY: AVX2 and FMA are enabled here; `pre(i)` comes from `RayPre::new`.
+                    let (near, hit) = unsafe { box_lanes_avx2(node, pre(i), t_min[i], t_best[i]) };
+                    let hit = _mm256_castps_si256(hit);
+                    rays_in = _mm256_or_si256(rays_in, _mm256_and_si256(hit, _mm256_set1_epi32(1 << i)));
+                    if !ANY {
+                        nearest = _mm256_min_ps(nearest, _mm256_blendv_ps(_mm256_set1_ps(f32::INFINITY), near, _mm256_castsi256_ps(hit)));
+                    }
+                }
+                let children = _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpgt_epi32(rays_in, _mm256_setzero_si256()))) as u32;
+                if children == 0 {
+                    // Fall through to the pop.
+                } else if children.is_power_of_two() {
+                    let lane = children.trailing_zeros() as usize;
+                    let mut masks = [0u32; 8];
+                    // SAFETY: eight `u32`s.
+                    unsafe { _mm256_storeu_si256(masks.as_mut_ptr().cast(), rays_in) };
+                    cur = node.child[lane];
+                    cur_mask = masks[lane];
+                    continue;
+                } else {
+                    let mut masks = [0u32; 8];
+                    // SAFETY: eight `u32`s / floats.
+                    unsafe { _mm256_storeu_si256(masks.as_mut_ptr().cast(), rays_in) };
+                    let n = children.count_ones() as usize;
+                    debug_assert!(sp + n <= STACK_SIZE);
+                    if ANY {
+                        // Any hit will do: the largest box first, the others in lane order.
+                        let mut c = children & (children - 1);
+                        while c != 0 {
+                            let lane = 31 - c.leading_zeros() as usize;
+                            c &= !(1 << lane);
+                            // SAFETY: sp + n <= STACK_SIZE: at most eight entries per level
+                            // and `from_bvh` checks the depth.
+                            unsafe { stack.get_unchecked_mut(sp).write((node.child[lane], masks[lane])) };
+                            sp += 1;
+                        }
+                        let lane = children.trailing_zeros() as usize;
+                        cur = node.child[lane];
+                        cur_mask = masks[lane];
+                        continue;
+                    }
+                    let mut dist = [0f32; 8];
+                    // SAFETY: eight floats.
+                    unsafe { _mm256_storeu_ps(dist.as_mut_ptr(), nearest) };
+                    // SAFETY: the CPU has AVX2.
+                    let keys = unsafe { sort_keys(&dist) };
+                    let mut c = children;
+                    while c != 0 {
+                        let lane = c.trailing_zeros() as usize;
+                        c &= c - 1;
+                        // SAFETY: as above.
+                        let rank = unsafe { nearer_count(keys, lane, children) };
+                        if rank == 0 {
+                            cur = node.child[lane];
+                            cur_mask = masks[lane];
+                        } else {
+                            // SAFETY: as for the pushes above; far to near from `sp`.
+                            unsafe { stack.get_unchecked_mut(sp + n - 1 - rank).write((node.child[lane], masks[lane])) };
+                        }
+                    }
+                    sp += n - 1;
+                    continue;
+                }
+            } else {
+                // ---- Leaf: each block against each ray that reached it ----
+                debug_assert!(cur != EMPTY);
+                for b in leaf_blocks(cur) {
+                    // SAFETY: leaf codes are written by `convert` and index `tris`.
+                    let tri = unsafe { self.tris.get_unchecked(b) };
+                    let mut m = cur_mask;
+                    while m != 0 {
+                        let i = m.trailing_zeros() as usize;
+                        m &= m - 1;
+                        if let Some(h) = tri4_sse::<ANY>(tri, pre(i), t_min[i], t_best[i]) {
+                            t_best[i] = h.t;
+                            out[i] = Some(h);
+                            if ANY {
+                                live &= !(1 << i);
+                                cur_mask &= !(1 << i);
+                            }
+                        }
+                    }
+                    if ANY && cur_mask == 0 {
+                        if live == 0 {
+                            break 'walk;
+                        }
+                        break;
+                    }
+                }
+            }
+            // ---- Pop the next subtree some live ray entered ----
+            loop {
+                if sp == 0 {
+                    break 'walk;
+                }
+                sp -= 1;
+                // SAFETY: entries below the old `sp` were all written by a push.
+                let (c, m) = unsafe { stack.get_unchecked(sp).assume_init() };
+                let m = if ANY { m & live } else { m };
+                if m != 0 {
+                    cur = c;
+                    cur_mask = m;
+                    break;
+                }
+            }
+        }
+    }
+}
