@@ -19,23 +19,29 @@ use crate::math::ray::RaySegment;
 pub(crate) const STREAM: usize = 16;
 
 impl WideBvh {
-    /// Trace up to [`STREAM`] rays: with `ANY`, each stops at its first hit. `out[i]` gets
-    /// ray `i`'s hit; invalid rays (see [`Ray::is_valid`]) get `None`.
+    /// Trace up to [`STREAM`] rays. Closest hits: `out[i]` gets ray `i`'s, `None` for
+    /// invalid rays (see [`Ray::is_valid`]). With `ANY`, each ray stops at its first hit,
+    /// `out` is not written (it may be empty) and the returned mask has bit `i` set when
+    /// ray `i` hit.
     ///
     /// # Safety
     /// The CPU must have what [`SimdLevel::Avx2`] names, and the tree must not be
     /// watertight (the stream has only the Möller–Trumbore block test).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,popcnt,bmi1,lzcnt")]
-    pub(crate) unsafe fn stream_avx2<const ANY: bool>(&self, rays: &[RaySegment], out: &mut [Option<MeshHit>]) {
+    pub(crate) unsafe fn stream_avx2<const ANY: bool>(&self, rays: &[RaySegment], out: &mut [Option<MeshHit>]) -> u32 {
         use std::arch::x86_64::*;
-        debug_assert!(rays.len() <= STREAM && out.len() >= rays.len() && !self.watertight);
+        debug_assert!(rays.len() <= STREAM && (ANY || out.len() >= rays.len()) && !self.watertight);
         let mut pre: [std::mem::MaybeUninit<RayPre>; STREAM] = [const { std::mem::MaybeUninit::uninit() }; STREAM];
         let mut t_min = [0f32; STREAM];
         let mut t_best = [0f32; STREAM];
         let mut live: u32 = 0;
+        // The rays that hit, for `ANY`.
+        let mut hit: u32 = 0;
         for (i, r) in rays.iter().enumerate() {
-            out[i] = None;
+            if !ANY {
+                out[i] = None;
+            }
             let ray = r.ray();
             if self.root == EMPTY || !ray.is_valid() {
                 continue;
@@ -137,9 +143,12 @@ impl WideBvh {
                         let i = m.trailing_zeros() as usize;
                         m &= m - 1;
                         if let Some(h) = tri4_sse::<ANY>(tri, pre(i), t_min[i], t_best[i]) {
-                            t_best[i] = h.t;
-                            out[i] = Some(h);
+                            if !ANY {
+                                t_best[i] = h.t;
+                                out[i] = Some(h);
+                            }
                             if ANY {
+                                hit |= 1 << i;
                                 live &= !(1 << i);
                                 cur_mask &= !(1 << i);
                             }
@@ -169,5 +178,6 @@ impl WideBvh {
                 }
             }
         }
+        hit
     }
 }
