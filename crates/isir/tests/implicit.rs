@@ -10,14 +10,12 @@ use isir::{scenes, Accel, CameraDesc, Color, Light, Ray, Scene, Vec3};
 use rayon::prelude::*;
 
 fn scene_of(geometry: Geometry) -> Scene {
-    Scene {
-        objects: vec![Object { name: "surface".into(), geometry, materials: vec![0] }],
-        materials: vec![isir::Material::Color(Color::ONE)],
-        lights: Vec::new(),
-        background: Color::ZERO,
-        warnings: Vec::new(),
-        top_level: None,
-    }
+    Scene::new(
+        vec![Object { name: "surface".into(), geometry, materials: vec![0] }],
+        vec![isir::Material::Color(Color::ONE)],
+        Vec::new(),
+        Color::ZERO,
+    )
 }
 
 fn implicit(sdf: Sdf) -> Geometry {

@@ -12,14 +12,12 @@ use rayon::prelude::*;
 const RAYS: u32 = 1_000_000;
 
 fn scene_of(geometry: Geometry) -> Scene {
-    Scene {
-        objects: vec![Object { name: "surface".into(), geometry, materials: vec![0] }],
-        materials: vec![isir::Material::Color(Color::ONE)],
-        lights: Vec::new(),
-        background: Color::ZERO,
-        warnings: Vec::new(),
-        top_level: None,
-    }
+    Scene::new(
+        vec![Object { name: "surface".into(), geometry, materials: vec![0] }],
+        vec![isir::Material::Color(Color::ONE)],
+        Vec::new(),
+        Color::ZERO,
+    )
 }
 
 fn mesh_of(vertices: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> Geometry {

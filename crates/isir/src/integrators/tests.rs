@@ -21,7 +21,7 @@ fn scene(objects: Vec<(Geometry, Material)>, lights: Vec<Light>, background: Col
             Object { name: format!("object {i}"), geometry, materials: vec![i as u32] }
         })
         .collect();
-    Scene { objects, materials, lights, background, warnings: Vec::new(), top_level: None }
+    Scene::new(objects, materials, lights, background)
 }
 
 fn plane(p: Vec3, n: Vec3) -> Geometry {

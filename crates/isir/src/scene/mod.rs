@@ -15,7 +15,9 @@ use crate::math::color::Color;
 use crate::math::ray::{Ray, RayLanes, RaySegment};
 use glam::Vec3;
 
+mod flat;
 mod lanes;
+use flat::FlatObjects;
 pub use lanes::{LaneHits, NO_OBJECT};
 
 /// An object: a geometry and the materials of its parts (one, or one per mesh material).
@@ -32,7 +34,7 @@ pub struct Object {
 /// A built scene, ready to trace.
 #[derive(Clone, Debug)]
 pub struct Scene {
-    /// Objects.
+    /// Objects. After changing them, call [`Scene::prepare`].
     pub objects: Vec<Object>,
     /// Materials, indexed by [`MaterialId`].
     pub materials: Vec<Material>,
@@ -46,6 +48,9 @@ pub struct Scene {
     /// A BVH over the bounded objects' world boxes, when there are many of them (see
     /// [`Scene::build_top_level`]); `None`: the objects are tried one by one.
     pub top_level: Option<TopLevel>,
+    /// Spheres and planes only: their tests side by side (built by [`Scene::new`] and
+    /// [`Scene::prepare`]; ignored once the object count has changed).
+    flat: Option<FlatObjects>,
 }
 
 /// The scene's own BVH (the SAH build of [`crate::accel::bvh`] over the objects' world
@@ -71,6 +76,29 @@ pub const TOP_LEVEL_MIN_OBJECTS: usize = 16;
 pub const MESH_PACKET_FROM: usize = 4;
 
 impl Scene {
+    /// A scene of these objects (`materials` indexed by their [`MaterialId`]s), lights and
+    /// background, prepared for tracing ([`Scene::prepare`]).
+    #[must_use]
+    pub fn new(objects: Vec<Object>, materials: Vec<Material>, lights: Vec<Light>, background: Color) -> Scene {
+        let mut scene = Scene { objects, materials, lights, background, warnings: Vec::new(), top_level: None, flat: None };
+        scene.prepare();
+        scene
+    }
+
+    /// Build what speeds up the queries over the objects, as they are now: the top-level
+    /// BVH from [`TOP_LEVEL_MIN_OBJECTS`] objects with a box, else, for spheres and planes
+    /// only, their arrays. Call it again after changing `objects`.
+    pub fn prepare(&mut self) {
+        let bounded = (0..self.objects.len()).filter(|&i| self.object_bounds(i).is_some()).count();
+        self.top_level = None;
+        self.flat = None;
+        if bounded >= TOP_LEVEL_MIN_OBJECTS {
+            self.build_top_level();
+        } else {
+            self.flat = FlatObjects::new(&self.objects);
+        }
+    }
+
     /// The closest hit in `[t_min, t_max)`. Invalid rays (NaN, zero direction) hit nothing.
     #[must_use]
     pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
@@ -89,6 +117,9 @@ impl Scene {
         let mut best: Option<(usize, f32, u32, f32, f32)> = None;
         match &self.top_level {
             None => {
+                if let Some(flat) = self.flat.as_ref().filter(|f| f.len() == self.objects.len()) {
+                    return flat.closest(ray, t_min, t_max).map(|(i, t)| (i, t, 0, 0.0, 0.0));
+                }
                 let mut t_best = t_max;
                 for i in 0..self.objects.len() {
                     if let Some((t, prim, u, v)) = self.hit_object(i, ray, t_min, t_best) {
@@ -169,7 +200,10 @@ impl Scene {
             return false;
         }
         match &self.top_level {
-            None => (0..self.objects.len()).any(|i| self.blocks(i, ray, t_min, t_max)),
+            None => match self.flat.as_ref().filter(|f| f.len() == self.objects.len()) {
+                Some(flat) => flat.any(ray, t_min, t_max),
+                None => (0..self.objects.len()).any(|i| self.blocks(i, ray, t_min, t_max)),
+            },
             Some(top) => {
                 top.bvh.occluded(ray, t_min, t_max, |k, t| self.blocks(top.bounded[k as usize] as usize, ray, t_min, t))
                     || top.unbounded.iter().any(|&i| self.blocks(i as usize, ray, t_min, t_max))

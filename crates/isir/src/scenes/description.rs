@@ -15,7 +15,7 @@ use crate::lights::Light;
 use crate::materials::{Material, MaterialId};
 use crate::math::aabb::Aabb;
 use crate::math::color::{Color, GREY, WHITE};
-use crate::scene::{Object, Scene, TOP_LEVEL_MIN_OBJECTS};
+use crate::scene::{Object, Scene};
 use glam::Vec3;
 use std::path::PathBuf;
 
@@ -390,11 +390,8 @@ impl SceneDescription {
             };
             objects.push(Object { name: desc.name.clone(), geometry, materials: mats });
         }
-        let mut scene = Scene { objects, materials, lights: self.lights.clone(), background: self.background, warnings, top_level: None };
-        let bounded = (0..scene.objects.len()).filter(|&i| scene.object_bounds(i).is_some()).count();
-        if bounded >= TOP_LEVEL_MIN_OBJECTS {
-            scene.build_top_level();
-        }
+        let mut scene = Scene::new(objects, materials, self.lights.clone(), self.background);
+        scene.warnings = warnings;
         Ok(scene)
     }
 
