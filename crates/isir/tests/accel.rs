@@ -377,3 +377,33 @@ fn shadow_packets_of_one_point_answer_as_single_rays() {
     let total = packets.iter().map(Vec::len).sum::<usize>() * SimdLevel::available().len();
     assert!(blocked > total / 10 && blocked < total * 9 / 10, "{blocked} of {total} blocked: a test of both answers");
 }
+
+/// An empty mesh and rays that are all invalid: packets and streams answer "nothing" on
+/// every level, as single rays do.
+#[test]
+fn packets_of_an_empty_mesh_or_of_invalid_rays_hit_nothing() {
+    use isir::math::ray::RaySegment;
+    let mut empty = TriangleMesh::new(Vec::new(), Vec::new(), Vec::new());
+    empty.build_accel(Accel::BvhSah);
+    let mut bunny = bunny();
+    bunny.build_accel(Accel::BvhSah);
+    let ray = |origin: Vec3, direction: Vec3| RaySegment { origin, t_min: 0.0, direction, t_max: f32::INFINITY };
+    let (centre, size) = (bunny.aabb().min + bunny.aabb().diagonal() * 0.5, bunny.aabb().diagonal().length());
+    let into_bunny: Vec<RaySegment> =
+        (0..16).map(|i| ray(centre + Vec3::new(0.0, 0.0, size), Vec3::new(i as f32 * 1e-3, 0.0, -1.0))).collect();
+    let invalid: Vec<RaySegment> = (0..16).map(|i| ray(Vec3::ZERO, if i % 2 == 0 { Vec3::ZERO } else { Vec3::NAN })).collect();
+    for (mesh, rays, label) in [(&empty, &into_bunny, "empty mesh"), (&bunny, &invalid, "invalid rays")] {
+        let MeshAccel::Wide(w) = mesh.accel() else { panic!("the SAH BVH is the wide BVH") };
+        for level in SimdLevel::available() {
+            let mut w = w.clone();
+            w.set_level(level);
+            assert_eq!(w.occluded_packet(rays), 0, "{label} {level:?}");
+            let mut out = [Some(isir::geometry::MeshHit { t: 1.0, prim: 0, u: 0.0, v: 0.0 }); 16];
+            w.intersect_packet(rays, &mut out);
+            assert!(out.iter().all(Option::is_none), "{label} {level:?}");
+        }
+    }
+    // The same rays into the bunny do hit it (the test above can fail).
+    let MeshAccel::Wide(w) = bunny.accel() else { unreachable!() };
+    assert_ne!(w.occluded_packet(&into_bunny), 0);
+}

@@ -50,6 +50,10 @@ impl WideBvh {
             (t_min[i], t_best[i]) = (r.t_min, r.t_max);
             live |= 1 << i;
         }
+        if live == 0 {
+            // No valid ray, or an empty tree (whose root code `EMPTY` is no leaf).
+            return 0;
+        }
         // SAFETY: read only for rays in `live`, which were all written above.
         let pre = |i: usize| unsafe { pre.get_unchecked(i).assume_init_ref() };
         let mut stack = [const { std::mem::MaybeUninit::<(u32, u32)>::uninit() }; STACK_SIZE];
