@@ -37,7 +37,7 @@ impl WideBvh {
         let mut t_best = [0f32; STREAM];
         let mut live: u32 = 0;
         // The rays that hit, for `ANY`.
-        let mut hit: u32 = 0;
+        let mut hit_rays: u32 = 0;
         for (i, r) in rays.iter().enumerate() {
             if !ANY {
                 out[i] = None;
@@ -74,11 +74,12 @@ impl WideBvh {
                     let i = m.trailing_zeros() as usize;
                     m &= m - 1;
                     // SAFETY: AVX2 and FMA are enabled here; `pre(i)` comes from `RayPre::new`.
-                    let (near, hit) = unsafe { box_lanes_avx2(node, pre(i), t_min[i], t_best[i]) };
-                    let hit = _mm256_castps_si256(hit);
-                    rays_in = _mm256_or_si256(rays_in, _mm256_and_si256(hit, _mm256_set1_epi32(1 << i)));
+                    let (near, entered) = unsafe { box_lanes_avx2(node, pre(i), t_min[i], t_best[i]) };
+                    let entered = _mm256_castps_si256(entered);
+                    rays_in = _mm256_or_si256(rays_in, _mm256_and_si256(entered, _mm256_set1_epi32(1 << i)));
                     if !ANY {
-                        nearest = _mm256_min_ps(nearest, _mm256_blendv_ps(_mm256_set1_ps(f32::INFINITY), near, _mm256_castsi256_ps(hit)));
+                        nearest =
+                            _mm256_min_ps(nearest, _mm256_blendv_ps(_mm256_set1_ps(f32::INFINITY), near, _mm256_castsi256_ps(entered)));
                     }
                 }
                 let children = _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpgt_epi32(rays_in, _mm256_setzero_si256()))) as u32;
@@ -152,7 +153,7 @@ impl WideBvh {
                                 out[i] = Some(h);
                             }
                             if ANY {
-                                hit |= 1 << i;
+                                hit_rays |= 1 << i;
                                 live &= !(1 << i);
                                 cur_mask &= !(1 << i);
                             }
@@ -182,6 +183,6 @@ impl WideBvh {
                 }
             }
         }
-        hit
+        hit_rays
     }
 }
