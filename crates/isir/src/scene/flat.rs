@@ -42,11 +42,12 @@ impl FlatObjects {
     /// of each.
     pub(crate) fn new(objects: &[Object]) -> Option<FlatObjects> {
         #[cfg(target_arch = "x86_64")]
-        if !std::arch::is_x86_feature_detected!("avx2") || objects.len() < FLAT_FROM {
+        let simd = std::arch::is_x86_feature_detected!("avx2");
+        #[cfg(not(target_arch = "x86_64"))]
+        let simd = false;
+        if !simd || objects.len() < FLAT_FROM {
             return None;
         }
-        #[cfg(not(target_arch = "x86_64"))]
-        return None;
         let mut f = FlatObjects {
             // Padding lanes never hit: a zero normal (the division's denominator is zero)
             // and a NaN radius (a NaN discriminant).

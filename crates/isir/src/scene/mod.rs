@@ -99,6 +99,12 @@ impl Scene {
         }
     }
 
+    /// The flat form of the objects, unless their count has changed since it was built.
+    #[inline(always)]
+    fn flat(&self) -> Option<&FlatObjects> {
+        self.flat.as_ref().filter(|f| f.len() == self.objects.len())
+    }
+
     /// The closest hit in `[t_min, t_max)`. Invalid rays (NaN, zero direction) hit nothing.
     #[must_use]
     pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
@@ -117,7 +123,7 @@ impl Scene {
         let mut best: Option<(usize, f32, u32, f32, f32)> = None;
         match &self.top_level {
             None => {
-                if let Some(flat) = self.flat.as_ref().filter(|f| f.len() == self.objects.len()) {
+                if let Some(flat) = self.flat() {
                     return flat.closest(ray, t_min, t_max).map(|(i, t)| (i, t, 0, 0.0, 0.0));
                 }
                 let mut t_best = t_max;
@@ -200,7 +206,7 @@ impl Scene {
             return false;
         }
         match &self.top_level {
-            None => match self.flat.as_ref().filter(|f| f.len() == self.objects.len()) {
+            None => match self.flat() {
                 Some(flat) => flat.any(ray, t_min, t_max),
                 None => (0..self.objects.len()).any(|i| self.blocks(i, ray, t_min, t_max)),
             },

@@ -83,20 +83,17 @@ impl WideBvh {
                     }
                 }
                 let children = _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpgt_epi32(rays_in, _mm256_setzero_si256()))) as u32;
-                if children == 0 {
-                    // Fall through to the pop.
-                } else if children.is_power_of_two() {
-                    let lane = children.trailing_zeros() as usize;
+                // No child entered: on to the pop.
+                if children != 0 {
                     let mut masks = [0u32; 8];
                     // SAFETY: eight `u32`s.
                     unsafe { _mm256_storeu_si256(masks.as_mut_ptr().cast(), rays_in) };
-                    cur = node.child[lane];
-                    cur_mask = masks[lane];
-                    continue;
-                } else {
-                    let mut masks = [0u32; 8];
-                    // SAFETY: eight `u32`s / floats.
-                    unsafe { _mm256_storeu_si256(masks.as_mut_ptr().cast(), rays_in) };
+                    if children.is_power_of_two() {
+                        let lane = children.trailing_zeros() as usize;
+                        cur = node.child[lane];
+                        cur_mask = masks[lane];
+                        continue;
+                    }
                     let n = children.count_ones() as usize;
                     debug_assert!(sp + n <= STACK_SIZE);
                     if ANY {
