@@ -45,7 +45,7 @@ impl Plane {
             let (o, d) = ([rays.o[0][k], rays.o[1][k], rays.o[2][k]], [rays.d[0][k], rays.d[1][k], rays.d[2][k]]);
             let denom = d[0] * n.x + d[1] * n.y + d[2] * n.z;
             let t = ((p.x - o[0]) * n.x + (p.y - o[1]) * n.y + (p.z - o[2]) * n.z) / denom;
-            hit[k] = denom != 0.0 && t >= rays.t_min[k] && t < rays.t_max[k];
+            hit[k] = (denom != 0.0) & (t >= rays.t_min[k]) & (t < rays.t_max[k]);
         }
         lane_mask(&hit)
     }
@@ -53,6 +53,9 @@ impl Plane {
     /// Closest hits of the rays `rays`: each lane `k` whose ray meets the plane in
     /// `[t_min[k], t_best[k])` gets that `t` in `t_best[k]` and its bit set in the result.
     /// The `t` of [`Plane::intersect`], by the same operations lane by lane, vectorised.
+    /// PERF: the conditions are joined with `&` and `|`, not `&&` and `||`: the
+    /// short-circuits became branches and LLVM kept the loop scalar (tp4-sphere, 64 spp:
+    /// 0.99 s → 0.87 s with both shapes' lane loops vectorised).
     #[must_use]
     #[inline(always)]
     #[allow(clippy::needless_range_loop)] // one index into many arrays: the loop vectorises
@@ -63,7 +66,7 @@ impl Plane {
             let (o, d) = ([rays.o[0][k], rays.o[1][k], rays.o[2][k]], [rays.d[0][k], rays.d[1][k], rays.d[2][k]]);
             let denom = d[0] * n.x + d[1] * n.y + d[2] * n.z;
             let t = ((p.x - o[0]) * n.x + (p.y - o[1]) * n.y + (p.z - o[2]) * n.z) / denom;
-            hit[k] = denom != 0.0 && t >= rays.t_min[k] && t < t_best[k];
+            hit[k] = (denom != 0.0) & (t >= rays.t_min[k]) & (t < t_best[k]);
             t_best[k] = if hit[k] { t } else { t_best[k] };
         }
         lane_mask(&hit)

