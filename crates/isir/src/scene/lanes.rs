@@ -9,7 +9,7 @@
 
 use super::Scene;
 use crate::geometry::{Geometry, Hit};
-use crate::math::ray::{Ray, RayLanes, LANES};
+use crate::math::ray::{RayLanes, LANES};
 
 /// No object: the lane's ray met nothing.
 pub const NO_OBJECT: u32 = u32::MAX;
@@ -105,12 +105,14 @@ impl Scene {
         hits
     }
 
-    /// The surface interaction of lane `k` of `hits` (for the ray `ray` of that lane), as
-    /// [`Scene::intersect`] returns it; `None` where the lane met nothing.
+    /// The surface interaction of lane `k` of `hits` (found for the rays `rays`), as
+    /// [`Scene::intersect`] returns it for ray `k`; `None` where the lane met nothing.
+    /// PERF: the ray is read from the lanes here, not passed by reference: a `Ray` written
+    /// float by float and read back as pairs of floats stalled on store forwarding.
     #[must_use]
-    pub fn lane_hit(&self, ray: &Ray, hits: &LaneHits, k: usize) -> Option<Hit> {
+    pub fn lane_hit(&self, rays: &RayLanes, hits: &LaneHits, k: usize) -> Option<Hit> {
         let i = hits.object[k];
-        (i != NO_OBJECT).then(|| self.interaction(ray, i as usize, hits.t[k], hits.prim[k], hits.u[k], hits.v[k]))
+        (i != NO_OBJECT).then(|| self.interaction_inline(&rays.ray(k), i as usize, hits.t[k], hits.prim[k], hits.u[k], hits.v[k]))
     }
 }
 
@@ -204,7 +206,7 @@ mod tests {
                 let hits = scene.intersect_lanes(&lanes, count);
                 for (k, r) in rays.iter().enumerate() {
                     let expected = scene.intersect(&r.ray(), r.t_min, r.t_max);
-                    let got = scene.lane_hit(&r.ray(), &hits, k);
+                    let got = scene.lane_hit(&lanes, &hits, k);
                     assert_eq!(format!("{got:?}"), format!("{expected:?}"), "{}: {r:?}", desc.name);
                     found += usize::from(got.is_some());
                 }

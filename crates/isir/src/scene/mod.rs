@@ -156,6 +156,12 @@ impl Scene {
     /// at `t` (`prim`, `u`, `v` on a mesh), built once, for the closest hit only.
     #[inline]
     pub(crate) fn interaction(&self, ray: &Ray, i: usize, t: f32, prim: u32, u: f32, v: f32) -> Hit {
+        self.interaction_inline(ray, i, t, prim, u, v)
+    }
+
+    /// [`Scene::interaction`], inlined into the caller.
+    #[inline(always)]
+    pub(crate) fn interaction_inline(&self, ray: &Ray, i: usize, t: f32, prim: u32, u: f32, v: f32) -> Hit {
         let o = &self.objects[i];
         let ((point, point_error), normal, geometric, slot) = match &o.geometry {
             Geometry::Sphere(s) => {
