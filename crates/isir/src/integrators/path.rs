@@ -221,7 +221,7 @@ fn next_event(
         } else {
             for _ in 0..n {
                 let ls = light_sampler.sample(hit.point, sampler.next_2d());
-                visit(&ls, shadow_rays.to(ls.point), &mut acc);
+                visit(&ls, shadow_rays.to_inline(ls.point), &mut acc);
             }
         }
         sum += acc / n as f32;

@@ -239,6 +239,12 @@ impl ShadowRays {
     /// crate grew), it made point-light scenes 25% slower (tp2-plane-point 0.59 -> 0.77 s).
     #[inline(never)]
     pub fn to(&mut self, target: Vec3) -> Option<(Ray, f32)> {
+        self.to_inline(target)
+    }
+
+    /// [`ShadowRays::to`], inlined into the caller.
+    #[inline(always)]
+    pub fn to_inline(&mut self, target: Vec3) -> Option<(Ray, f32)> {
         let back = (target - self.p).dot(self.n) < 0.0;
         let origin =
             *self.origins[usize::from(back)].get_or_insert_with(|| offset_along(self.p, self.d, if back { -self.n } else { self.n }));
