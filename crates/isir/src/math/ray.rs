@@ -246,8 +246,17 @@ impl ShadowRays {
     #[inline(always)]
     pub fn to_inline(&mut self, target: Vec3) -> Option<(Ray, f32)> {
         let back = (target - self.p).dot(self.n) < 0.0;
-        let origin =
-            *self.origins[usize::from(back)].get_or_insert_with(|| offset_along(self.p, self.d, if back { -self.n } else { self.n }));
+        // PERF: the origin computed into a local, then cached: read back from the cache
+        // just written (float by float), it stalled on store forwarding.
+        let slot = &mut self.origins[usize::from(back)];
+        let origin = match *slot {
+            Some(origin) => origin,
+            None => {
+                let origin = offset_along(self.p, self.d, if back { -self.n } else { self.n });
+                *slot = Some(origin);
+                origin
+            }
+        };
         let to = target - origin;
         let dist = to.length();
         (dist > 0.0 && dist.is_finite()).then(|| (Ray::new(origin, to / dist), dist * (1.0 - 1e-4)))
