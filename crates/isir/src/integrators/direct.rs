@@ -112,16 +112,14 @@ pub(super) fn quad_light(
             *x = sampler.next_2d();
         }
         let batch = QuadBatch::new(light_sampler, shadow_rays, hit.normal, &xi);
-        let (rays, lanes) = batch.live_rays(count);
-        counters.shadow += lanes.len() as u64;
-        // All the hit's shadow rays at once (`Scene::occluded_packet` decides how).
-        let blocked = scene.occluded_packet(&rays[..lanes.len()]);
+        let live = batch.live_mask(count);
+        counters.shadow += u64::from(live.count_ones());
+        // All the hit's shadow rays at once (`Scene::occluded_lanes` decides how).
+        let blocked = scene.occluded_lanes(&batch.rays, live);
         // `material.shade(ray, hit, &batch.sample(j))` of every sample, computed together.
         let f = batch.shade(material, ray, hit);
-        for (k, &j) in lanes.iter().enumerate() {
-            if blocked & (1 << k) == 0 {
-                sum += Color::new(f[0][j], f[1][j], f[2][j]) * batch.radiance(j) * batch.cos[j];
-            }
+        for j in (0..count).filter(|&j| live & !blocked & (1 << j) != 0) {
+            sum += Color::new(f[0][j], f[1][j], f[2][j]) * batch.radiance(j) * batch.cos[j];
         }
     }
     sum / n as f32

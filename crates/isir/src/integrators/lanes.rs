@@ -2,7 +2,7 @@
 //! small wavefront). Their closest hits come from one [`Scene::intersect_lanes`]; each
 //! lane's surface interaction and shading is the course's code, one lane after another;
 //! the shadow rays of all the lanes towards one point light go to one
-//! [`Scene::occluded_packet`]. Whitted's mirrors and glass recurse, and the path tracer
+//! [`Scene::occluded_lanes`]. Whitted's mirrors and glass recurse, and the path tracer
 //! follows its paths, one lane at a time from the first hit on. Every lane's colour is the
 //! one [`Integrator::li`] returns for its ray and sampler, bit for bit: the same operations
 //! on the same floats, only grouped differently.
@@ -18,7 +18,7 @@ use super::{whitted, Integrator, RayCounters};
 use crate::geometry::Hit;
 use crate::lights::LightSampler;
 use crate::math::color::Color;
-use crate::math::ray::{RayLanes, RaySegment, ShadowRays, LANES};
+use crate::math::ray::{RayLanes, ShadowRays, LANES};
 use crate::math::sampling::Sampler;
 use crate::scene::Scene;
 
@@ -91,7 +91,7 @@ fn path_lanes(
 }
 
 /// [`direct_lighting`] for every lane with a hit, light by light: a point light's shadow
-/// rays from all the lanes in one [`Scene::occluded_packet`]; a quad light's lane by lane
+/// rays from all the lanes in one [`Scene::occluded_lanes`]; a quad light's lane by lane
 /// (each lane's samples are already traced together).
 fn direct_lanes(
     scene: &Scene,
@@ -127,23 +127,14 @@ fn direct_lanes(
             samplers[k].next_2d();
         }
         let batch = PointBatch::new(&light_sampler, hits);
-        let mut segments = [RaySegment { origin: glam::Vec3::ZERO, t_min: 0.0, direction: glam::Vec3::ZERO, t_max: 0.0 }; LANES];
-        let mut lane_of = [0usize; LANES];
-        let mut traced = 0;
-        for k in (0..n).filter(|&k| batch.live[k]) {
-            segments[traced] = batch.shadow_ray(k);
-            lane_of[traced] = k;
-            traced += 1;
-        }
-        counters.shadow += traced as u64;
-        let blocked = scene.occluded_packet(&segments[..traced]);
+        let live = (0..n).filter(|&k| batch.live[k]).fold(0u32, |m, k| m | 1 << k);
+        counters.shadow += u64::from(live.count_ones());
+        let blocked = scene.occluded_lanes(&batch.rays, live);
         let mut sum = [Color::ZERO; LANES];
-        for (j, &k) in lane_of[..traced].iter().enumerate() {
-            if blocked & (1 << j) == 0 {
-                let Some(hit) = &hits[k] else { unreachable!("a live lane has a hit") };
-                let ls = batch.sample(k);
-                sum[k] += scene.material(hit).shade(&rays.ray(k), hit, &ls) * ls.radiance * batch.cos[k];
-            }
+        for k in (0..n).filter(|&k| live & !blocked & (1 << k) != 0) {
+            let Some(hit) = &hits[k] else { unreachable!("a live lane has a hit") };
+            let ls = batch.sample(k);
+            sum[k] += scene.material(hit).shade(&rays.ray(k), hit, &ls) * ls.radiance * batch.cos[k];
         }
         for k in 0..n {
             li[k] += sum[k] / 1.0;

@@ -15,7 +15,7 @@ use crate::geometry::Hit;
 use crate::lights::{LightSample, LightSampler};
 use crate::materials::Material;
 use crate::math::color::Color;
-use crate::math::ray::{Ray, RaySegment};
+use crate::math::ray::Ray;
 use crate::math::sampling::Sampler;
 use crate::scene::Scene;
 use glam::{Vec2, Vec3};
@@ -197,25 +197,18 @@ fn next_event(
                 // The samples `visit` would trace, their shadow rays traced as one packet,
                 // then summed in order as `visit` sums them.
                 let mut f = [Color::ZERO; BATCH];
-                let mut rays = [RaySegment { origin: Vec3::ZERO, t_min: 0.0, direction: Vec3::ZERO, t_max: 0.0 }; BATCH];
-                let mut lane_of = [0usize; BATCH];
-                let mut traced = 0;
+                let mut traced = 0u32;
                 for j in (0..count).filter(|&j| batch.has_ray[j]) {
                     if let Some(fj) = traced_f(&batch.sample(j)) {
-                        let (ray, t_max) = batch.shadow_ray(j);
                         f[j] = fj;
-                        (rays[traced], lane_of[traced]) =
-                            (RaySegment { origin: ray.origin, t_min: 0.0, direction: ray.direction, t_max }, j);
-                        traced += 1;
+                        traced |= 1 << j;
                     }
                 }
-                counters.shadow += traced as u64;
-                let blocked = scene.occluded_packet(&rays[..traced]);
-                for (g, &j) in lane_of[..traced].iter().enumerate() {
-                    if blocked & (1 << g) == 0 {
-                        let ls = batch.sample(j);
-                        acc += unoccluded(&ls, f[j]);
-                    }
+                counters.shadow += u64::from(traced.count_ones());
+                let blocked = scene.occluded_lanes(&batch.rays, traced);
+                for j in (0..count).filter(|&j| traced & !blocked & (1 << j) != 0) {
+                    let ls = batch.sample(j);
+                    acc += unoccluded(&ls, f[j]);
                 }
             }
         } else {

@@ -13,7 +13,7 @@ use crate::geometry::Hit;
 use crate::lights::{LightSample, LightSampler};
 use crate::materials::Material;
 use crate::math::color::Color;
-use crate::math::ray::{round_away, Ray, RaySegment, ShadowRays};
+use crate::math::ray::{round_away, Ray, RayLanes, ShadowRays};
 use glam::{Vec2, Vec3};
 
 /// Samples per batch.
@@ -34,9 +34,8 @@ pub(super) struct QuadBatch {
     radiance: [[f32; BATCH]; 3],
     /// `max(wi · n, 0)` with the hit's shading normal.
     pub(super) cos: [f32; BATCH],
-    origin: [[f32; BATCH]; 3],
-    dir: [[f32; BATCH]; 3],
-    t_max: [f32; BATCH],
+    /// The shadow rays, in lanes (intervals from 0).
+    pub(super) rays: RayLanes,
     /// The sample lights the hit (`cos > 0`, some radiance) and its shadow ray exists.
     pub(super) live: [bool; BATCH],
     /// The shadow ray exists (its target is finite and not its origin).
@@ -78,9 +77,7 @@ impl QuadBatch {
             pdf: [0.0; BATCH],
             radiance: [[0.0; BATCH]; 3],
             cos: [0.0; BATCH],
-            origin: [[0.0; BATCH]; 3],
-            dir: [[0.0; BATCH]; 3],
-            t_max: [0.0; BATCH],
+            rays: RayLanes { o: [[0.0; BATCH]; 3], d: [[0.0; BATCH]; 3], t_min: [0.0; BATCH], t_max: [0.0; BATCH] },
             live: [false; BATCH],
             has_ray: [false; BATCH],
         };
@@ -121,16 +118,16 @@ impl QuadBatch {
         for k in 0..3 {
             for j in 0..BATCH {
                 b.radiance[k][j] = if lit[j] { e[k] / b.pdf[j] } else { 0.0 };
-                b.origin[k][j] = if side_back[j] { back[k] } else { front[k] };
-                to[k][j] = b.point[k][j] - b.origin[k][j];
+                b.rays.o[k][j] = if side_back[j] { back[k] } else { front[k] };
+                to[k][j] = b.point[k][j] - b.rays.o[k][j];
             }
         }
         for j in 0..BATCH {
             let dist = (to[0][j] * to[0][j] + to[1][j] * to[1][j] + to[2][j] * to[2][j]).sqrt();
             for k in 0..3 {
-                b.dir[k][j] = to[k][j] / dist;
+                b.rays.d[k][j] = to[k][j] / dist;
             }
-            b.t_max[j] = dist * (1.0 - 1e-4);
+            b.rays.t_max[j] = dist * (1.0 - 1e-4);
             b.has_ray[j] = dist > 0.0 && dist.is_finite();
             let some_radiance = b.radiance[0][j] != 0.0 || b.radiance[1][j] != 0.0 || b.radiance[2][j] != 0.0;
             b.live[j] = b.cos[j] != 0.0 && some_radiance && b.has_ray[j];
@@ -174,23 +171,15 @@ impl QuadBatch {
         Vec3::new(self.radiance[0][j], self.radiance[1][j], self.radiance[2][j])
     }
 
-    /// The shadow rays of the live samples among the first `count`, in order, and which
-    /// samples they are.
-    pub(super) fn live_rays(&self, count: usize) -> ([RaySegment; BATCH], arrayvec_lite::Lanes) {
-        let mut rays = [RaySegment { origin: Vec3::ZERO, t_min: 0.0, direction: Vec3::ZERO, t_max: 0.0 }; BATCH];
-        let mut lanes = arrayvec_lite::Lanes::default();
-        for j in (0..count).filter(|&j| self.live[j]) {
-            let (ray, t_max) = self.shadow_ray(j);
-            rays[lanes.len()] = RaySegment { origin: ray.origin, t_min: 0.0, direction: ray.direction, t_max };
-            lanes.push(j);
-        }
-        (rays, lanes)
+    /// The live samples among the first `count`, as a lane mask.
+    pub(super) fn live_mask(&self, count: usize) -> u32 {
+        (0..count).filter(|&j| self.live[j]).fold(0, |m, j| m | 1 << j)
     }
 
     /// The shadow ray of sample `j` and its `t_max`, as [`ShadowRays::to`] returns them.
-    pub(super) fn shadow_ray(&self, j: usize) -> (Ray, f32) {
-        let at = |a: &[[f32; BATCH]; 3]| Vec3::new(a[0][j], a[1][j], a[2][j]);
-        (Ray::new(at(&self.origin), at(&self.dir)), self.t_max[j])
+    #[cfg(test)]
+    fn shadow_ray(&self, j: usize) -> (Ray, f32) {
+        (self.rays.ray(j), self.rays.t_max[j])
     }
 }
 
@@ -204,9 +193,8 @@ pub(super) struct PointBatch {
     radiance: [[f32; BATCH]; 3],
     /// `max(wi · n, 0)` with the hit's shading normal.
     pub(super) cos: [f32; BATCH],
-    origin: [[f32; BATCH]; 3],
-    dir: [[f32; BATCH]; 3],
-    t_max: [f32; BATCH],
+    /// The shadow rays, in lanes (intervals from 0).
+    pub(super) rays: RayLanes,
     /// The lane has a hit, the light lights it (`cos > 0`, some radiance) and its shadow
     /// ray exists.
     pub(super) live: [bool; BATCH],
@@ -257,9 +245,7 @@ impl PointBatch {
             distance: [0.0; BATCH],
             radiance: [[0.0; BATCH]; 3],
             cos: [0.0; BATCH],
-            origin: [[0.0; BATCH]; 3],
-            dir: [[0.0; BATCH]; 3],
-            t_max: [0.0; BATCH],
+            rays: RayLanes { o: [[0.0; BATCH]; 3], d: [[0.0; BATCH]; 3], t_min: [0.0; BATCH], t_max: [0.0; BATCH] },
             live: [false; BATCH],
             position,
         };
@@ -286,12 +272,12 @@ impl PointBatch {
             for k in 0..3 {
                 b.wi[k][j] = wi[k];
                 b.radiance[k][j] = rad[k];
-                b.origin[k][j] = o[k];
-                b.dir[k][j] = t[k] / dist;
+                b.rays.o[k][j] = o[k];
+                b.rays.d[k][j] = t[k] / dist;
             }
             b.distance[j] = d;
             b.cos[j] = cos;
-            b.t_max[j] = dist * (1.0 - 1e-4);
+            b.rays.t_max[j] = dist * (1.0 - 1e-4);
             b.live[j] = has[j] && cos != 0.0 && some_radiance && has_ray;
         }
         b
@@ -304,36 +290,10 @@ impl PointBatch {
     }
 
     /// The shadow ray of lane `j` with its interval, as [`ShadowRays::to`] gives it.
-    pub(super) fn shadow_ray(&self, j: usize) -> RaySegment {
-        let at = |a: &[[f32; BATCH]; 3]| Vec3::new(a[0][j], a[1][j], a[2][j]);
-        RaySegment { origin: at(&self.origin), t_min: 0.0, direction: at(&self.dir), t_max: self.t_max[j] }
-    }
-}
-
-/// A short list of sample indices (at most [`BATCH`]).
-mod arrayvec_lite {
-    use super::BATCH;
-
-    /// Up to [`BATCH`] sample indices.
-    #[derive(Default)]
-    pub(in crate::integrators) struct Lanes {
-        index: [usize; BATCH],
-        len: usize,
-    }
-
-    impl Lanes {
-        pub(in crate::integrators) fn push(&mut self, j: usize) {
-            self.index[self.len] = j;
-            self.len += 1;
-        }
-
-        pub(in crate::integrators) fn len(&self) -> usize {
-            self.len
-        }
-
-        pub(in crate::integrators) fn iter(&self) -> std::slice::Iter<'_, usize> {
-            self.index[..self.len].iter()
-        }
+    #[cfg(test)]
+    fn shadow_ray(&self, j: usize) -> crate::math::ray::RaySegment {
+        let ray = self.rays.ray(j);
+        crate::math::ray::RaySegment { origin: ray.origin, t_min: 0.0, direction: ray.direction, t_max: self.rays.t_max[j] }
     }
 }
 
@@ -341,6 +301,7 @@ mod arrayvec_lite {
 mod tests {
     use super::*;
     use crate::lights::Light;
+    use crate::math::ray::RaySegment;
     use crate::math::sampling::Sampler;
 
     /// Every field equals the one-at-a-time computation, bit for bit, including samples

@@ -105,6 +105,36 @@ impl RayLanes {
     }
 }
 
+impl RayLanes {
+    /// The lanes whose ray [`Ray::is_valid`]: finite origin and direction, direction not
+    /// zero.
+    #[inline(always)]
+    #[must_use]
+    #[allow(clippy::needless_range_loop)] // one index into many arrays: the loop vectorises
+    pub fn valid_mask(&self) -> u32 {
+        let mut valid = [false; LANES];
+        for k in 0..LANES {
+            let finite = (0..3).fold(true, |f, a| f & self.o[a][k].is_finite() & self.d[a][k].is_finite());
+            let nonzero = (self.d[0][k] != 0.0) | (self.d[1][k] != 0.0) | (self.d[2][k] != 0.0);
+            valid[k] = finite & nonzero;
+        }
+        lane_mask(&valid)
+    }
+
+    /// The lanes whose origin is lane `first`'s (compared as `Vec3`s compare).
+    #[inline(always)]
+    #[must_use]
+    #[allow(clippy::needless_range_loop)] // one index into many arrays: the loop vectorises
+    pub fn same_origin_mask(&self, first: usize) -> u32 {
+        let o = [self.o[0][first], self.o[1][first], self.o[2][first]];
+        let mut same = [false; LANES];
+        for k in 0..LANES {
+            same[k] = (self.o[0][k] == o[0]) & (self.o[1][k] == o[1]) & (self.o[2][k] == o[2]);
+        }
+        lane_mask(&same)
+    }
+}
+
 /// The bits `0..LANES` of the lanes where `hit` holds.
 #[inline]
 #[must_use]

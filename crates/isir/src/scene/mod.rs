@@ -252,53 +252,11 @@ impl Scene {
 
     #[inline(always)]
     pub(crate) fn occluded_packet_portable(&self, rays: &[RaySegment]) -> u32 {
-        let single = |i: usize, k: usize| u32::from(self.blocks(i, &rays[k].ray(), rays[k].t_min, rays[k].t_max)) << k;
         if self.top_level.is_some() || rays.len() < 2 {
             return (0..rays.len()).fold(0, |m, k| m | u32::from(self.occluded(&rays[k].ray(), rays[k].t_min, rays[k].t_max)) << k);
         }
         let all = u32::MAX >> (32 - rays.len());
-        let mut open: u32 = (0..rays.len()).filter(|&k| rays[k].ray().is_valid()).fold(0, |m, k| m | 1 << k);
-        let one_origin = rays.iter().all(|r| r.origin == rays[0].origin);
-        // Built on the first sphere or plane (a mesh alone does not need it).
-        let mut lanes: Option<RayLanes> = None;
-        let mut occluded = 0;
-        for (i, object) in self.objects.iter().enumerate() {
-            if open == 0 {
-                break;
-            }
-            let blocked = match &object.geometry {
-                Geometry::Sphere(s) => s.hit_lanes(lanes.get_or_insert_with(|| RayLanes::new(rays))) & open,
-                Geometry::Plane(p) => p.hit_lanes(lanes.get_or_insert_with(|| RayLanes::new(rays))) & open,
-                Geometry::Mesh(m) => {
-                    // Only the rays that may meet the mesh's box (shadow rays from many
-                    // hits miss a small mesh), then those together, their answers back in
-                    // their lanes.
-                    // PERF: rays of one origin (an area light's samples) skip the box test:
-                    // on the conference room it costs 6% and culls nothing.
-                    let near = if one_origin { open } else { open & m.may_hit_lanes(lanes.get_or_insert_with(|| RayLanes::new(rays))) };
-                    if (near.count_ones() as usize) < MESH_PACKET_FROM {
-                        (0..rays.len()).filter(|&k| near & (1 << k) != 0).fold(0, |acc, k| acc | single(i, k))
-                    } else if near == all {
-                        // Every ray: no gathering (an area light's samples, the common case).
-                        m.occluded_packet(rays)
-                    } else {
-                        let mut group = [rays[0]; crate::accel::packet::PACKET];
-                        let mut index = [0usize; crate::accel::packet::PACKET];
-                        let mut n = 0;
-                        for k in (0..rays.len()).filter(|&k| near & (1 << k) != 0) {
-                            (group[n], index[n]) = (rays[k], k);
-                            n += 1;
-                        }
-                        let hit = m.occluded_packet(&group[..n]);
-                        (0..n).filter(|&g| hit & (1 << g) != 0).fold(0, |acc, g| acc | 1 << index[g])
-                    }
-                }
-                _ => (0..rays.len()).filter(|&k| open & (1 << k) != 0).fold(0, |acc, k| acc | single(i, k)),
-            };
-            occluded |= blocked;
-            open &= !blocked;
-        }
-        occluded
+        self.occluded_lanes_portable(&RayLanes::new(rays), all, Some(rays))
     }
 
     /// The closest hit of object `i` in `[t_min, t_max)`: `(t, prim, u, v)`.
