@@ -332,7 +332,7 @@ fn short_rays_far_from_the_origin_find_triangles_at_their_box_edges() {
 /// whole, partial and with odd members (invalid rays, a negative `t_min`, empty intervals).
 #[test]
 fn shadow_packets_of_one_point_answer_as_single_rays() {
-    use isir::math::ray::RaySegment;
+    use isir::math::ray::{RayLanes, RaySegment};
     let mut mesh = isir::scenes::load_builtin_model("conference").unwrap().mesh;
     mesh.build_accel(Accel::BvhSah);
     let MeshAccel::Wide(w) = mesh.accel() else { panic!("the SAH BVH is the wide BVH") };
@@ -364,14 +364,19 @@ fn shadow_packets_of_one_point_answer_as_single_rays() {
     for level in SimdLevel::available() {
         let mut w = w.clone();
         w.set_level(level);
-        for rays in &packets {
+        for (p, rays) in packets.iter().enumerate() {
             let mask = w.occluded_packet(rays);
+            // The same rays in lanes, asked about all of them or every lane but some.
+            let asked = if p % 3 == 0 { u32::MAX } else { !(0b1001 << (p % 5)) };
+            let lanes = w.occluded_lanes(&RayLanes::new(rays), asked);
             for (i, r) in rays.iter().enumerate() {
                 let want = w.occluded(&r.ray(), r.t_min, r.t_max);
                 blocked += usize::from(want);
                 assert_eq!(mask & (1 << i) != 0, want, "{level:?}: packet of {}, ray {i}: {r:?}", rays.len());
+                assert_eq!(lanes & (1 << i) != 0, want && asked & (1 << i) != 0, "{level:?}: lanes of {}, ray {i}: {r:?}", rays.len());
             }
             assert_eq!(mask >> rays.len(), 0, "{level:?}: bits beyond the packet");
+            assert_eq!(lanes >> rays.len(), 0, "{level:?}: bits beyond the lanes");
         }
     }
     let total = packets.iter().map(Vec::len).sum::<usize>() * SimdLevel::available().len();

@@ -9,9 +9,12 @@
 //! operation for operation as in [`crate::accel::triangle::moller_trumbore`], so packets
 //! return the same hits as single rays.
 
+#[cfg(target_arch = "x86_64")]
+use crate::accel::wide::stream::MaskedLanes;
 use crate::accel::wide::{SimdLevel, WideBvh};
 use crate::accel::MeshHit;
-use crate::math::ray::RaySegment;
+use crate::math::ray::{lanes_of, RayLanes, RaySegment, LANES};
+use glam::Vec3;
 
 /// Rays per packet.
 pub const PACKET: usize = 16;
@@ -39,7 +42,7 @@ impl WideBvh {
         #[cfg(target_arch = "x86_64")]
         if self.level() == SimdLevel::Avx2 && !self.watertight {
             // SAFETY: the level is only ever Avx2 when the CPU reported AVX2; not watertight.
-            unsafe { self.stream_avx2::<false>(rays, out) };
+            unsafe { self.stream_avx2::<false, _>(rays, out) };
             return;
         }
         for (r, o) in rays.iter().zip(out.iter_mut()) {
@@ -95,9 +98,32 @@ impl WideBvh {
             // PERF: a stream of eight shadow rays of one point (conference room, 8 light
             // samples): 0.77x the render time of single rays.
             // SAFETY: the level is only ever Avx2 when the CPU reported AVX2; not watertight.
-            return unsafe { self.stream_avx2::<true>(rays, &mut []) };
+            return unsafe { self.stream_avx2::<true, _>(rays, &mut []) };
         }
         rays.iter().enumerate().fold(0, |m, (i, r)| m | u32::from(single(r)) << i)
+    }
+
+    /// [`WideBvh::occluded_packet`] for the lanes `mask` of `rays`: bit `k` set when lane
+    /// `k` is in `mask` and its ray is occluded. An AVX2 stream reads the rays from their
+    /// lanes; otherwise they are gathered into a packet.
+    #[must_use]
+    pub fn occluded_lanes(&self, rays: &RayLanes, mask: u32) -> u32 {
+        let mask = mask & (u32::MAX >> (32 - LANES));
+        #[cfg(target_arch = "x86_64")]
+        if self.level() == SimdLevel::Avx2 && !self.watertight && mask.count_ones() > 1 {
+            // SAFETY: the level is only ever Avx2 when the CPU reported AVX2; not watertight.
+            return unsafe { self.stream_avx2::<true, _>(&MaskedLanes(rays, mask), &mut []) };
+        }
+        let mut group = [RaySegment { origin: Vec3::ZERO, t_min: 0.0, direction: Vec3::ZERO, t_max: 0.0 }; PACKET];
+        let mut index = [0usize; PACKET];
+        let mut n = 0;
+        for k in lanes_of(mask) {
+            let ray = rays.ray(k);
+            (group[n], index[n]) =
+                (RaySegment { origin: ray.origin, t_min: rays.t_min[k], direction: ray.direction, t_max: rays.t_max[k] }, k);
+            n += 1;
+        }
+        lanes_of(self.occluded_packet(&group[..n])).fold(0, |m, g| m | 1 << index[g])
     }
 
     /// The AVX-512 packet traversal; false (nothing written) when the rays' direction

@@ -591,6 +591,18 @@ impl TriangleMesh {
         }
     }
 
+    /// [`Self::occluded`] for the lanes `mask` of `rays`: bit `k` set when lane `k` is in
+    /// `mask` and occluded. Traced together through the wide BVH
+    /// ([`WideBvh::occluded_lanes`]), one at a time otherwise.
+    #[must_use]
+    pub fn occluded_lanes(&self, rays: &RayLanes, mask: u32) -> u32 {
+        match &self.accel {
+            MeshAccel::Wide(w) => w.occluded_lanes(rays, mask),
+            _ => crate::math::ray::lanes_of(mask & (u32::MAX >> (32 - LANES)))
+                .fold(0, |m, k| m | u32::from(self.occluded(&rays.ray(k), rays.t_min[k], rays.t_max[k])) << k),
+        }
+    }
+
     /// The face normal `normalize((v1-v0) × (v2-v0))` of triangle `prim`.
     #[must_use]
     pub fn face_normal(&self, prim: u32) -> Vec3 {

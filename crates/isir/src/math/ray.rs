@@ -135,6 +135,19 @@ impl RayLanes {
     }
 }
 
+/// The lanes whose bits are set in `mask`, in increasing order.
+#[inline]
+pub fn lanes_of(mask: u32) -> impl Iterator<Item = usize> {
+    let mut m = mask;
+    std::iter::from_fn(move || {
+        (m != 0).then(|| {
+            let k = m.trailing_zeros() as usize;
+            m &= m - 1;
+            k
+        })
+    })
+}
+
 /// The bits `0..LANES` of the lanes where `hit` holds.
 #[inline]
 #[must_use]

@@ -9,7 +9,7 @@
 
 use super::{Scene, MESH_PACKET_FROM};
 use crate::geometry::{Geometry, Hit};
-use crate::math::ray::{RayLanes, RaySegment, LANES};
+use crate::math::ray::{lanes_of, RayLanes, LANES};
 
 /// No object: the lane's ray met nothing.
 pub const NO_OBJECT: u32 = u32::MAX;
@@ -129,7 +129,7 @@ impl Scene {
             // SAFETY: the CPU has AVX2, which is all `occluded_lanes_avx2` is compiled for.
             return unsafe { self.occluded_lanes_avx2(rays, live) };
         }
-        self.occluded_lanes_portable(rays, live, None)
+        self.occluded_lanes_portable(rays, live)
     }
 
     /// [`Scene::occluded_lanes`] compiled for AVX2: the lane loops eight lanes wide (no FMA
@@ -137,13 +137,11 @@ impl Scene {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     fn occluded_lanes_avx2(&self, rays: &RayLanes, live: u32) -> u32 {
-        self.occluded_lanes_portable(rays, live, None)
+        self.occluded_lanes_portable(rays, live)
     }
 
-    /// [`Scene::occluded_lanes`]; `segments`, when given, are the same rays as `rays` in
-    /// lane order (a mesh that every ray may meet then takes them without a copy).
     #[inline(always)]
-    pub(crate) fn occluded_lanes_portable(&self, rays: &RayLanes, live: u32, segments: Option<&[RaySegment]>) -> u32 {
+    pub(crate) fn occluded_lanes_portable(&self, rays: &RayLanes, live: u32) -> u32 {
         let live = live & (u32::MAX >> (32 - LANES));
         let single = |i: usize, k: usize| u32::from(self.blocks(i, &rays.ray(k), rays.t_min[k], rays.t_max[k])) << k;
         if self.top_level.is_some() || live.count_ones() < 2 {
@@ -170,26 +168,10 @@ impl Scene {
                     // PERF: rays of one origin (an area light's samples) skip the box test:
                     // on the conference room it costs 6% and culls nothing.
                     let near = if one_origin { open } else { open & m.may_hit_lanes(rays) };
-                    match segments {
-                        _ if (near.count_ones() as usize) < MESH_PACKET_FROM => lanes_of(near).fold(0, |acc, k| acc | single(i, k)),
-                        // Every ray: no gathering (an area light's samples, the common case).
-                        Some(all) if near == u32::MAX >> (32 - all.len()) => m.occluded_packet(all),
-                        _ => {
-                            let mut group =
-                                [RaySegment { origin: glam::Vec3::ZERO, t_min: 0.0, direction: glam::Vec3::ZERO, t_max: 0.0 }; LANES];
-                            let mut index = [0usize; LANES];
-                            let mut n = 0;
-                            for k in lanes_of(near) {
-                                let ray = rays.ray(k);
-                                (group[n], index[n]) = (
-                                    RaySegment { origin: ray.origin, t_min: rays.t_min[k], direction: ray.direction, t_max: rays.t_max[k] },
-                                    k,
-                                );
-                                n += 1;
-                            }
-                            let hit = m.occluded_packet(&group[..n]);
-                            lanes_of(hit).fold(0, |acc, g| acc | 1 << index[g])
-                        }
+                    if (near.count_ones() as usize) < MESH_PACKET_FROM {
+                        lanes_of(near).fold(0, |acc, k| acc | single(i, k))
+                    } else {
+                        m.occluded_lanes(rays, near)
                     }
                 }
                 _ => lanes_of(open).fold(0, |acc, k| acc | single(i, k)),
@@ -199,19 +181,6 @@ impl Scene {
         }
         occluded
     }
-}
-
-/// The lanes whose bits are set in `mask`, in increasing order.
-#[inline]
-fn lanes_of(mask: u32) -> impl Iterator<Item = usize> {
-    let mut m = mask;
-    std::iter::from_fn(move || {
-        (m != 0).then(|| {
-            let k = m.trailing_zeros() as usize;
-            m &= m - 1;
-            k
-        })
-    })
 }
 
 #[cfg(test)]
@@ -306,12 +275,8 @@ mod tests {
                     _ => rng.next_f32().to_bits() >> 7 & 0xffff,
                 };
                 let got = scene.occluded_lanes(&lanes, live);
-                // The portable loops (CPUs without AVX2), and the form that may pass the
-                // rays to a mesh uncopied, answer the same.
-                assert_eq!(scene.occluded_lanes_portable(&lanes, live, None), got);
-                if live == u32::MAX {
-                    assert_eq!(scene.occluded_lanes_portable(&lanes, live, Some(&rays)), got);
-                }
+                // The portable loops (CPUs without AVX2) answer the same.
+                assert_eq!(scene.occluded_lanes_portable(&lanes, live), got);
                 for (k, r) in rays.iter().enumerate() {
                     let expected = live & (1 << k) != 0 && scene.occluded(&r.ray(), r.t_min, r.t_max);
                     assert_eq!(got & (1 << k) != 0, expected, "{name}, round {round}, lane {k}: {r:?}");

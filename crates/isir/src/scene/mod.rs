@@ -256,7 +256,7 @@ impl Scene {
             return (0..rays.len()).fold(0, |m, k| m | u32::from(self.occluded(&rays[k].ray(), rays[k].t_min, rays[k].t_max)) << k);
         }
         let all = u32::MAX >> (32 - rays.len());
-        self.occluded_lanes_portable(&RayLanes::new(rays), all, Some(rays))
+        self.occluded_lanes_portable(&RayLanes::new(rays), all)
     }
 
     /// The closest hit of object `i` in `[t_min, t_max)`: `(t, prim, u, v)`.

@@ -13,10 +13,47 @@
 use super::kernels::*;
 use super::traverse::{nearer_count, sort_keys};
 use super::*;
-use crate::math::ray::RaySegment;
+use crate::math::ray::{RayLanes, RaySegment};
 
 /// Rays per stream (the width of the masks).
 pub(crate) const STREAM: usize = 16;
+
+/// Where a stream's rays come from: ray `i` and its interval, or `None` for a ray not to
+/// trace (its answer is a miss).
+pub(crate) trait StreamRays {
+    /// How many rays (indices `0..count`).
+    fn count(&self) -> usize;
+    /// Ray `i` with its `t_min` and `t_max`.
+    fn get(&self, i: usize) -> Option<(Ray, f32, f32)>;
+}
+
+impl StreamRays for [RaySegment] {
+    #[inline(always)]
+    fn count(&self) -> usize {
+        self.len()
+    }
+
+    #[inline(always)]
+    fn get(&self, i: usize) -> Option<(Ray, f32, f32)> {
+        let r = &self[i];
+        Some((r.ray(), r.t_min, r.t_max))
+    }
+}
+
+/// The lanes of a [`RayLanes`] whose bits are set in the mask.
+pub(crate) struct MaskedLanes<'a>(pub(crate) &'a RayLanes, pub(crate) u32);
+
+impl StreamRays for MaskedLanes<'_> {
+    #[inline(always)]
+    fn count(&self) -> usize {
+        (32 - self.1.leading_zeros() as usize).min(crate::math::ray::LANES)
+    }
+
+    #[inline(always)]
+    fn get(&self, i: usize) -> Option<(Ray, f32, f32)> {
+        (self.1 & (1 << i) != 0).then(|| (self.0.ray(i), self.0.t_min[i], self.0.t_max[i]))
+    }
+}
 
 impl WideBvh {
     /// Trace up to [`STREAM`] rays. Closest hits: `out[i]` gets ray `i`'s, `None` for
@@ -29,25 +66,25 @@ impl WideBvh {
     /// watertight (the stream has only the Möller–Trumbore block test).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,popcnt,bmi1,lzcnt")]
-    pub(crate) unsafe fn stream_avx2<const ANY: bool>(&self, rays: &[RaySegment], out: &mut [Option<MeshHit>]) -> u32 {
+    pub(crate) unsafe fn stream_avx2<const ANY: bool, R: StreamRays + ?Sized>(&self, rays: &R, out: &mut [Option<MeshHit>]) -> u32 {
         use std::arch::x86_64::*;
-        debug_assert!(rays.len() <= STREAM && (ANY || out.len() >= rays.len()) && !self.watertight);
+        debug_assert!(rays.count() <= STREAM && (ANY || out.len() >= rays.count()) && !self.watertight);
         let mut pre: [std::mem::MaybeUninit<RayPre>; STREAM] = [const { std::mem::MaybeUninit::uninit() }; STREAM];
         let mut t_min = [0f32; STREAM];
         let mut t_best = [0f32; STREAM];
         let mut live: u32 = 0;
         // The rays that hit, for `ANY`.
         let mut hit_rays: u32 = 0;
-        for (i, r) in rays.iter().enumerate() {
+        for i in 0..rays.count() {
             if !ANY {
                 out[i] = None;
             }
-            let ray = r.ray();
+            let Some((ray, r_min, r_max)) = rays.get(i) else { continue };
             if self.root == EMPTY || !ray.is_valid() {
                 continue;
             }
             pre[i].write(RayPre::new(&ray));
-            (t_min[i], t_best[i]) = (r.t_min, r.t_max);
+            (t_min[i], t_best[i]) = (r_min, r_max);
             live |= 1 << i;
         }
         if live == 0 {
