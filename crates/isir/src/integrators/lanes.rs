@@ -34,7 +34,7 @@ impl Integrator {
         assert!(n <= LANES && out.len() >= n);
         counters.primary += n as u64;
         let closest = scene.intersect_lanes(rays, n);
-        let hits: [Option<Hit>; LANES] = std::array::from_fn(|k| if k < n { scene.lane_hit(rays, &closest, k) } else { None });
+        let hits = scene.lane_hits(rays, &closest, n);
         match *self {
             Integrator::DirectLighting { light_samples } => direct_lanes(scene, rays, &hits, light_samples, samplers, counters, out),
             Integrator::Whitted { light_samples, max_depth } => {
