@@ -111,7 +111,7 @@ pub(super) fn quad_light(
         for x in &mut xi[..count] {
             *x = sampler.next_2d();
         }
-        let batch = QuadBatch::new(light_sampler, shadow_rays, hit.normal, &xi);
+        let batch = QuadBatch::new(light_sampler, shadow_rays, hit.normal, &xi, count);
         let live = batch.live_mask(count);
         counters.shadow += u64::from(live.count_ones());
         // All the hit's shadow rays at once (`Scene::occluded_lanes` decides how).

@@ -193,7 +193,7 @@ fn next_event(
                 for x in &mut xi[..count] {
                     *x = sampler.next_2d();
                 }
-                let batch = QuadBatch::new(&light_sampler, &shadow_rays, hit.normal, &xi);
+                let batch = QuadBatch::new(&light_sampler, &shadow_rays, hit.normal, &xi, count);
                 // The samples `visit` would trace, their shadow rays traced as one packet,
                 // then summed in order as `visit` sums them.
                 let mut f = [Color::ZERO; BATCH];

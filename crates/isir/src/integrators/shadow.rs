@@ -45,26 +45,41 @@ pub(super) struct QuadBatch {
 impl QuadBatch {
     /// Samples `xi[..n]` of the quad light `light` seen from the hit whose shading normal is
     /// `normal` and whose shadow rays leave as `rays` says.
-    pub(super) fn new(light: &LightSampler, rays: &ShadowRays, normal: Vec3, xi: &[Vec2; BATCH]) -> Self {
+    /// Only the first `count` lanes are meaningful (the others are computed from whatever
+    /// `xi` holds there, or left zero).
+    /// PERF: eight lanes computed when `count` is at most 8 (the conference room's eight
+    /// light samples): 5% of that render was this function computing all sixteen.
+    pub(super) fn new(light: &LightSampler, rays: &ShadowRays, normal: Vec3, xi: &[Vec2; BATCH], count: usize) -> Self {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU has AVX2, which is all `new_avx2` is compiled for.
-            return unsafe { Self::new_avx2(light, rays, normal, xi) };
+            return unsafe {
+                if count <= BATCH / 2 {
+                    Self::new_avx2::<{ BATCH / 2 }>(light, rays, normal, xi)
+                } else {
+                    Self::new_avx2::<BATCH>(light, rays, normal, xi)
+                }
+            };
         }
-        Self::new_portable(light, rays, normal, xi)
+        if count <= BATCH / 2 {
+            Self::new_portable::<{ BATCH / 2 }>(light, rays, normal, xi)
+        } else {
+            Self::new_portable::<BATCH>(light, rays, normal, xi)
+        }
     }
 
     /// [`Self::new`] compiled for AVX2: the same operations eight lanes wide (no FMA
     /// contraction, so the same floats).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn new_avx2(light: &LightSampler, rays: &ShadowRays, normal: Vec3, xi: &[Vec2; BATCH]) -> Self {
-        Self::new_portable(light, rays, normal, xi)
+    fn new_avx2<const W: usize>(light: &LightSampler, rays: &ShadowRays, normal: Vec3, xi: &[Vec2; BATCH]) -> Self {
+        Self::new_portable::<W>(light, rays, normal, xi)
     }
 
+    /// The first `W` lanes (`W` at most [`BATCH`]; the others stay zero and not live).
     #[inline(always)]
     #[allow(clippy::needless_range_loop)] // one index into many arrays: the loops vectorise
-    fn new_portable(light: &LightSampler, rays: &ShadowRays, normal: Vec3, xi: &[Vec2; BATCH]) -> Self {
+    fn new_portable<const W: usize>(light: &LightSampler, rays: &ShadowRays, normal: Vec3, xi: &[Vec2; BATCH]) -> Self {
         let LightSampler::Quad { corner, u, v, normal: ln, area, emitted } = *light else {
             unreachable!("quad lights only");
         };
@@ -85,21 +100,21 @@ impl QuadBatch {
         // `ShadowRays::to`, in their order, so every float is the same. Stage by stage
         // over the lanes, without branches, so that each loop vectorises.
         let (mut xa, mut xc) = ([0f32; BATCH], [0f32; BATCH]);
-        for j in 0..BATCH {
+        for j in 0..W {
             (xa[j], xc[j]) = (xi[j].x, xi[j].y);
         }
         let (c, uu, vv, xx, n, sn, g) =
             (corner.to_array(), u.to_array(), v.to_array(), x.to_array(), ln.to_array(), normal.to_array(), ng.to_array());
         let mut to = [[0f32; BATCH]; 3];
         for k in 0..3 {
-            for j in 0..BATCH {
+            for j in 0..W {
                 b.point[k][j] = c[k] + xa[j] * uu[k] + xc[j] * vv[k];
                 to[k][j] = b.point[k][j] - xx[k];
             }
         }
         let mut lit = [false; BATCH];
         let mut side_back = [false; BATCH];
-        for j in 0..BATCH {
+        for j in 0..W {
             let d = (to[0][j] * to[0][j] + to[1][j] * to[1][j] + to[2][j] * to[2][j]).sqrt();
             b.distance[j] = d;
             let wi = [to[0][j] / d, to[1][j] / d, to[2][j] / d];
@@ -116,13 +131,13 @@ impl QuadBatch {
         }
         let e = emitted.to_array();
         for k in 0..3 {
-            for j in 0..BATCH {
+            for j in 0..W {
                 b.radiance[k][j] = if lit[j] { e[k] / b.pdf[j] } else { 0.0 };
                 b.rays.o[k][j] = if side_back[j] { back[k] } else { front[k] };
                 to[k][j] = b.point[k][j] - b.rays.o[k][j];
             }
         }
-        for j in 0..BATCH {
+        for j in 0..W {
             let dist = (to[0][j] * to[0][j] + to[1][j] * to[1][j] + to[2][j] * to[2][j]).sqrt();
             for k in 0..3 {
                 b.rays.d[k][j] = to[k][j] / dist;
@@ -329,14 +344,25 @@ mod tests {
                 *x = Vec2::new(rng.next_f32(), rng.next_f32());
             }
             let mut rays = ShadowRays::new(p, err, ng);
-            let batch = QuadBatch::new(&ls, &rays, normal, &xi);
+            let batch = QuadBatch::new(&ls, &rays, normal, &xi, BATCH);
             // Both code paths where this CPU has both.
-            let portable = QuadBatch::new_portable(&ls, &rays, normal, &xi);
+            let portable = QuadBatch::new_portable::<BATCH>(&ls, &rays, normal, &xi);
+            // Eight lanes (eight samples or fewer): the first eight of sixteen, no more.
+            let half = QuadBatch::new(&ls, &rays, normal, &xi, BATCH / 2);
             for j in 0..BATCH {
                 assert_eq!(
                     (portable.sample(j), portable.shadow_ray(j), portable.live[j]),
                     (batch.sample(j), batch.shadow_ray(j), batch.live[j])
                 );
+                if j < BATCH / 2 {
+                    assert_eq!(
+                        (half.sample(j), half.shadow_ray(j), half.live[j], half.has_ray[j]),
+                        (batch.sample(j), batch.shadow_ray(j), batch.live[j], batch.has_ray[j])
+                    );
+                    assert_eq!(half.cos[j].to_bits(), batch.cos[j].to_bits());
+                } else {
+                    assert!(!half.live[j] && !half.has_ray[j]);
+                }
                 let s = ls.sample(p, xi[j]);
                 assert_eq!(batch.sample(j), s);
                 let cos = s.direction.dot(normal).max(0.0);
@@ -424,7 +450,7 @@ mod tests {
             for x in &mut xi {
                 *x = Vec2::new(rng.next_f32(), rng.next_f32());
             }
-            let batch = QuadBatch::new(&light, &ShadowRays::new(p, Vec3::ZERO, ng), normal, &xi);
+            let batch = QuadBatch::new(&light, &ShadowRays::new(p, Vec3::ZERO, ng), normal, &xi, BATCH);
             let material = &materials[round % materials.len()];
             let fast = batch.shade(material, &ray, &hit);
             let mut portable = [[0.0; BATCH]; 3];
