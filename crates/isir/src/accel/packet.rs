@@ -5,7 +5,7 @@
 //! Used for coherent rays (camera rays of neighbouring pixels, the shadow rays of one
 //! point). Rays whose direction signs differ within the packet or a watertight BVH fall
 //! back to one ray at a time; on a CPU with AVX2 but not AVX-512 the rays go down the tree
-//! as a stream instead ([`crate::accel::wide::stream`]). Möller–Trumbore is computed
+//! as a stream instead (`accel/wide/stream.rs`). Möller–Trumbore is computed
 //! operation for operation as in [`crate::accel::triangle::moller_trumbore`], so packets
 //! return the same hits as single rays.
 
