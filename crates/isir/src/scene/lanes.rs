@@ -136,7 +136,7 @@ impl Scene {
     /// points, already in lanes): bit `k` set when `k` is in `live` and ray `k` is occluded
     /// in its `[t_min, t_max)`, the answers of one [`Scene::occluded`] per lane. Spheres and
     /// planes test all the lanes still open at once; meshes trace them as a packet
-    /// ([`crate::geometry::TriangleMesh::occluded_packet`]) from [`MESH_PACKET_FROM`] rays, one by one below.
+    /// ([`crate::geometry::TriangleMesh::occluded_lanes`]) from [`MESH_PACKET_FROM`] rays, one by one below.
     #[must_use]
     pub fn occluded_lanes(&self, rays: &RayLanes, live: u32) -> u32 {
         #[cfg(target_arch = "x86_64")]

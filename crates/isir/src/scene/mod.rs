@@ -225,9 +225,7 @@ impl Scene {
 
     /// [`Scene::occluded`] for up to [`crate::accel::packet::PACKET`] rays (the shadow
     /// rays of one point): bit `i` set when `rays[i]` is occluded, the answers of one
-    /// [`Scene::occluded`] per ray. Spheres and planes test all the rays still open at once
-    /// ([`crate::geometry::Sphere::hit_lanes`], [`crate::geometry::Plane::hit_lanes`]); meshes trace them as a packet
-    /// ([`TriangleMesh::occluded_packet`]) from [`MESH_PACKET_FROM`] rays, one by one below.
+    /// [`Scene::occluded`] per ray: the rays put in lanes, then [`Scene::occluded_lanes`].
     ///
     /// # Panics
     /// If there are more than [`crate::accel::packet::PACKET`] rays.
