@@ -2,8 +2,8 @@
 //! small wavefront). Their closest hits come from one [`Scene::intersect_lanes`]; each
 //! lane's surface interaction and shading is the course's code, one lane after another;
 //! the shadow rays of all the lanes towards one point light go to one
-//! [`Scene::occluded_lanes`]. Whitted's mirrors and glass recurse, and the path tracer
-//! follows its paths, one lane at a time from the first hit on. Every lane's colour is the
+//! [`Scene::occluded_lanes`]. Whitted's mirrors and glass recurse one lane at a time; the
+//! path tracer steps its paths side by side, each bounce's hits found in lanes. Every lane's colour is the
 //! one [`Integrator::li`] returns for its ray and sampler, bit for bit: the same operations
 //! on the same floats, only grouped differently.
 //!

@@ -58,8 +58,8 @@ pub(super) fn li(
 }
 
 /// A path being traced: the ray to follow next and what the path has gathered so far.
-/// [`li`] steps one path to its end; the lanes step each of sixteen paths to its end from
-/// a first hit found together with the others'.
+/// [`li`] steps one path to its end; the lanes step sixteen paths side by side, each
+/// bounce's hits found together.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Path {
     /// The ray to follow, in `[t_min, t_max)`.
