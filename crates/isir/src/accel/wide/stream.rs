@@ -10,6 +10,9 @@
 //! [`WideBvh::intersect`] except, on an exact tie of two triangles' distances, which of
 //! them is reported (the visiting order differs).
 
+// The streams are AVX2 code: elsewhere only their ray sources are compiled.
+#![cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+
 use super::kernels::*;
 use super::traverse::{nearer_count, sort_keys};
 use super::*;
