@@ -15,7 +15,7 @@ use crate::geometry::Hit;
 use crate::lights::{LightSample, LightSampler};
 use crate::materials::Material;
 use crate::math::color::Color;
-use crate::math::ray::Ray;
+use crate::math::ray::{Ray, RaySegment};
 use crate::math::sampling::Sampler;
 use crate::scene::Scene;
 use glam::{Vec2, Vec3};
@@ -97,6 +97,25 @@ impl Path {
         sampler: &mut Sampler,
         counters: &mut RayCounters,
     ) -> bool {
+        self.step_deferring(scene, hit, light_samples, max_depth, sampler, counters, None)
+    }
+
+    /// [`Path::step`], except that with `defer`, in a scene whose one light is a point
+    /// light, the vertex's shadow ray is not traced but left in `defer` (`None` when there
+    /// is none to trace) with what it would add; [`Path::finish_shadow`] adds it once the
+    /// ray is answered, before the path's next step. The lanes trace the shadow rays of
+    /// sixteen paths together this way.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn step_deferring(
+        &mut self,
+        scene: &Scene,
+        hit: Option<Hit>,
+        light_samples: u32,
+        max_depth: u32,
+        sampler: &mut Sampler,
+        counters: &mut RayCounters,
+        defer: Option<&mut Option<DeferredShadow>>,
+    ) -> bool {
         let n_light = light_samples.max(1);
         // ---- Quad lights met before the surface (they block nothing) ----
         let t_hit = hit.map_or(self.t_max, |h| h.t);
@@ -118,7 +137,13 @@ impl Path {
         let material = scene.material(&hit);
         let wo = -self.ray.direction.normalize();
         if !material.is_delta() {
-            self.l += self.beta * next_event(scene, &hit, material, wo, n_light, sampler, counters);
+            let defer = defer.filter(|_| scene.lights.len() == 1 && !scene.lights[0].is_surface());
+            let mut deferred = None;
+            let sum = next_event(scene, &hit, material, wo, n_light, sampler, counters, defer.is_some().then_some(&mut deferred));
+            match (defer, deferred) {
+                (Some(slot), Some((ray, value))) => *slot = Some(DeferredShadow { ray, value, beta: self.beta }),
+                _ => self.l += self.beta * sum,
+            }
         }
         // ---- The next direction ----
         let (u_lobe, u) = (sampler.next_f32(), sampler.next_2d());
@@ -145,9 +170,36 @@ impl Path {
     }
 }
 
+/// A point light's shadow ray left untraced by [`Path::step_deferring`]: the ray, what
+/// its sample adds when the ray is not blocked, and the throughput at that vertex.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct DeferredShadow {
+    /// The shadow ray, `t` from 0.
+    pub(super) ray: RaySegment,
+    value: Color,
+    beta: Color,
+}
+
+impl Path {
+    /// Adds what [`next_event`] would have added with the deferred shadow ray `d`
+    /// answered: the same operations, so the same floats.
+    pub(super) fn finish_shadow(&mut self, d: &DeferredShadow, blocked: bool) {
+        let mut acc = Color::ZERO;
+        if !blocked {
+            acc += d.value;
+        }
+        let mut sum = Color::ZERO;
+        sum += acc / 1.0;
+        self.l += d.beta * sum;
+    }
+}
+
 /// Light arriving at `hit` straight from the lights and leaving towards `wo`: for each
 /// light the average over its samples (`n_light` per quad light, one per point light) of
-/// `f · L · |cos| / pdf`, weighted against BSDF sampling for quad lights.
+/// `f · L · |cos| / pdf`, weighted against BSDF sampling for quad lights. With `defer`
+/// (a scene of one point light), a shadow ray to trace is not traced: it is left there
+/// with what its sample adds, and the sum returned leaves it out.
+#[allow(clippy::too_many_arguments)]
 fn next_event(
     scene: &Scene,
     hit: &Hit,
@@ -156,6 +208,7 @@ fn next_event(
     n_light: u32,
     sampler: &mut Sampler,
     counters: &mut RayCounters,
+    mut defer: Option<&mut Option<(RaySegment, Color)>>,
 ) -> Color {
     let mut sum = Color::ZERO;
     let mut shadow_rays = hit.shadow_rays();
@@ -180,6 +233,10 @@ fn next_event(
             let Some(f) = traced_f(ls) else { return };
             let Some((shadow, t_max)) = ray else { return };
             counters.shadow += 1;
+            if let Some(slot) = defer.as_deref_mut() {
+                *slot = Some((RaySegment { origin: shadow.origin, t_min: 0.0, direction: shadow.direction, t_max }, unoccluded(ls, f)));
+                return;
+            }
             if scene.occluded(&shadow, 0.0, t_max) {
                 return;
             }
