@@ -118,9 +118,7 @@ impl WideBvh {
         let mut index = [0usize; PACKET];
         let mut n = 0;
         for k in lanes_of(mask) {
-            let ray = rays.ray(k);
-            (group[n], index[n]) =
-                (RaySegment { origin: ray.origin, t_min: rays.t_min[k], direction: ray.direction, t_max: rays.t_max[k] }, k);
+            (group[n], index[n]) = (rays.segment(k), k);
             n += 1;
         }
         lanes_of(self.occluded_packet(&group[..n])).fold(0, |m, g| m | 1 << index[g])

@@ -1,7 +1,7 @@
 //! The course's direct lighting: for each light, the average over its samples of
 //! `shade · radiance · cos`, a sample counting only when its shadow ray reaches the light.
 
-use super::shadow::{QuadBatch, BATCH, BATCH_FROM};
+use super::shadow::{live_mask, QuadBatch, BATCH, BATCH_FROM};
 use super::RayCounters;
 use crate::geometry::Hit;
 use crate::lights::LightSampler;
@@ -112,7 +112,7 @@ pub(super) fn quad_light(
             *x = sampler.next_2d();
         }
         let batch = QuadBatch::new(light_sampler, shadow_rays, hit.normal, &xi, count);
-        let live = batch.live_mask(count);
+        let live = live_mask(&batch.live, count);
         counters.shadow += u64::from(live.count_ones());
         // All the hit's shadow rays at once (`Scene::occluded_lanes` decides how).
         let blocked = scene.occluded_lanes(&batch.rays, live);

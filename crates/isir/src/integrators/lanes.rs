@@ -12,8 +12,8 @@
 //! CPU overlap them, and spheres and planes are tested against all the lanes at once.
 
 use super::direct::quad_light;
-use super::path::{DeferredShadow, Path};
-use super::shadow::PointBatch;
+use super::path::{defers_shadow, DeferredShadow, Path};
+use super::shadow::{live_mask, PointBatch};
 use super::{whitted, Integrator, RayCounters};
 use crate::geometry::Hit;
 use crate::lights::LightSampler;
@@ -87,40 +87,29 @@ fn path_lanes(
     let mut paths: [Path; LANES] = std::array::from_fn(|k| Path::new(&rays.ray(k), rays.t_min[k], rays.t_max[k]));
     let mut hits = first;
     let mut active: u32 = if n == 0 { 0 } else { u32::MAX >> (32 - n) };
-    let zero = RayLanes { o: [[0.0; LANES]; 3], d: [[0.0; LANES]; 3], t_min: [0.0; LANES], t_max: [0.0; LANES] };
     // A scene lit by one point light: each vertex's shadow ray is left for one
     // `occluded_lanes` over the sixteen paths (`Path::step_deferring`).
     // PERF: only there: the bookkeeping made the quad-light scenes 2% slower.
-    let defer = scene.lights.len() == 1 && !scene.lights[0].is_surface();
+    let defer = defers_shadow(scene);
     let mut deferred: [Option<DeferredShadow>; LANES] = [None; LANES];
     loop {
-        let mut next = zero;
+        let mut next = RayLanes::EMPTY;
         let mut ended = 0u32;
         for k in lanes_of(active) {
-            let going = if defer {
-                paths[k].step_deferring(scene, hits[k], light_samples, max_depth, &mut samplers[k], counters, Some(&mut deferred[k]))
-            } else {
-                paths[k].step(scene, hits[k], light_samples, max_depth, &mut samplers[k], counters)
-            };
-            if going {
+            let slot = defer.then_some(&mut deferred[k]);
+            if paths[k].step_deferring(scene, hits[k], light_samples, max_depth, &mut samplers[k], counters, slot) {
                 let p = &paths[k];
-                for a in 0..3 {
-                    (next.o[a][k], next.d[a][k]) = (p.ray.origin[a], p.ray.direction[a]);
-                }
-                (next.t_min[k], next.t_max[k]) = (p.t_min, p.t_max);
+                next.set(k, p.ray.origin, p.ray.direction, p.t_min, p.t_max);
             } else {
                 ended |= 1 << k;
             }
         }
         if defer {
-            let mut shadow = zero;
+            let mut shadow = RayLanes::EMPTY;
             let mut traced = 0u32;
             for (k, d) in deferred.iter_mut().enumerate() {
                 if let Some(d) = d {
-                    for a in 0..3 {
-                        (shadow.o[a][k], shadow.d[a][k]) = (d.ray.origin[a], d.ray.direction[a]);
-                    }
-                    (shadow.t_min[k], shadow.t_max[k]) = (d.ray.t_min, d.ray.t_max);
+                    shadow.set(k, d.ray.origin, d.ray.direction, d.ray.t_min, d.ray.t_max);
                     traced |= 1 << k;
                 }
             }
@@ -181,7 +170,7 @@ fn direct_lanes(
             samplers[k].next_2d();
         }
         let batch = PointBatch::new(&light_sampler, hits);
-        let live = (0..n).filter(|&k| batch.live[k]).fold(0u32, |m, k| m | 1 << k);
+        let live = live_mask(&batch.live, n);
         counters.shadow += u64::from(live.count_ones());
         let blocked = scene.occluded_lanes(&batch.rays, live);
         let mut sum = [Color::ZERO; LANES];

@@ -137,7 +137,7 @@ impl Path {
         let material = scene.material(&hit);
         let wo = -self.ray.direction.normalize();
         if !material.is_delta() {
-            let defer = defer.filter(|_| scene.lights.len() == 1 && !scene.lights[0].is_surface());
+            let defer = defer.filter(|_| defers_shadow(scene));
             let mut deferred = None;
             let sum = next_event(scene, &hit, material, wo, n_light, sampler, counters, defer.is_some().then_some(&mut deferred));
             match (defer, deferred) {
@@ -168,6 +168,12 @@ impl Path {
         (self.t_min, self.t_max) = (0.0, f32::INFINITY);
         true
     }
+}
+
+/// True when [`Path::step_deferring`] can leave a vertex's shadow ray untraced: the scene
+/// is lit by one point light (one shadow ray per vertex).
+pub(super) fn defers_shadow(scene: &Scene) -> bool {
+    scene.lights.len() == 1 && !scene.lights[0].is_surface()
 }
 
 /// A point light's shadow ray left untraced by [`Path::step_deferring`]: the ray, what

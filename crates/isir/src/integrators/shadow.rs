@@ -92,7 +92,7 @@ impl QuadBatch {
             pdf: [0.0; BATCH],
             radiance: [[0.0; BATCH]; 3],
             cos: [0.0; BATCH],
-            rays: RayLanes { o: [[0.0; BATCH]; 3], d: [[0.0; BATCH]; 3], t_min: [0.0; BATCH], t_max: [0.0; BATCH] },
+            rays: RayLanes::EMPTY,
             live: [false; BATCH],
             has_ray: [false; BATCH],
         };
@@ -186,16 +186,17 @@ impl QuadBatch {
         Vec3::new(self.radiance[0][j], self.radiance[1][j], self.radiance[2][j])
     }
 
-    /// The live samples among the first `count`, as a lane mask.
-    pub(super) fn live_mask(&self, count: usize) -> u32 {
-        (0..count).filter(|&j| self.live[j]).fold(0, |m, j| m | 1 << j)
-    }
-
     /// The shadow ray of sample `j` and its `t_max`, as [`ShadowRays::to`] returns them.
     #[cfg(test)]
     fn shadow_ray(&self, j: usize) -> (Ray, f32) {
         (self.rays.ray(j), self.rays.t_max[j])
     }
+}
+
+/// The lanes among the first `count` whose flag in `live` is set, as a mask (a batch's
+/// live samples).
+pub(super) fn live_mask(live: &[bool; BATCH], count: usize) -> u32 {
+    (0..count).filter(|&j| live[j]).fold(0, |m, j| m | 1 << j)
 }
 
 /// A point light seen from up to [`BATCH`] hits (one camera sample each, in lanes): the
@@ -260,7 +261,7 @@ impl PointBatch {
             distance: [0.0; BATCH],
             radiance: [[0.0; BATCH]; 3],
             cos: [0.0; BATCH],
-            rays: RayLanes { o: [[0.0; BATCH]; 3], d: [[0.0; BATCH]; 3], t_min: [0.0; BATCH], t_max: [0.0; BATCH] },
+            rays: RayLanes::EMPTY,
             live: [false; BATCH],
             position,
         };
@@ -307,8 +308,7 @@ impl PointBatch {
     /// The shadow ray of lane `j` with its interval, as [`ShadowRays::to`] gives it.
     #[cfg(test)]
     fn shadow_ray(&self, j: usize) -> crate::math::ray::RaySegment {
-        let ray = self.rays.ray(j);
-        crate::math::ray::RaySegment { origin: ray.origin, t_min: 0.0, direction: ray.direction, t_max: self.rays.t_max[j] }
+        self.rays.segment(j)
     }
 }
 

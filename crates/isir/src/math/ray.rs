@@ -76,6 +76,9 @@ pub struct RayLanes {
 }
 
 impl RayLanes {
+    /// Zero rays in every lane (invalid: they meet nothing).
+    pub const EMPTY: RayLanes = RayLanes { o: [[0.0; LANES]; 3], d: [[0.0; LANES]; 3], t_min: [0.0; LANES], t_max: [0.0; LANES] };
+
     /// The rays `rays` (at most [`LANES`]).
     ///
     /// # Panics
@@ -83,16 +86,29 @@ impl RayLanes {
     #[must_use]
     pub fn new(rays: &[RaySegment]) -> Self {
         assert!(rays.len() <= LANES);
-        let mut l = RayLanes { o: [[0.0; LANES]; 3], d: [[0.0; LANES]; 3], t_min: [0.0; LANES], t_max: [0.0; LANES] };
+        let mut l = RayLanes::EMPTY;
         for (k, r) in rays.iter().enumerate() {
-            for axis in 0..3 {
-                l.o[axis][k] = r.origin[axis];
-                l.d[axis][k] = r.direction[axis];
-            }
-            l.t_min[k] = r.t_min;
-            l.t_max[k] = r.t_max;
+            l.set(k, r.origin, r.direction, r.t_min, r.t_max);
         }
         l
+    }
+
+    /// Lane `k` becomes the ray from `origin` along `direction` in `[t_min, t_max)`.
+    #[inline(always)]
+    pub fn set(&mut self, k: usize, origin: Vec3, direction: Vec3, t_min: f32, t_max: f32) {
+        for axis in 0..3 {
+            self.o[axis][k] = origin[axis];
+            self.d[axis][k] = direction[axis];
+        }
+        (self.t_min[k], self.t_max[k]) = (t_min, t_max);
+    }
+
+    /// Lane `k`'s ray with its interval.
+    #[inline(always)]
+    #[must_use]
+    pub fn segment(&self, k: usize) -> RaySegment {
+        let ray = self.ray(k);
+        RaySegment { origin: ray.origin, t_min: self.t_min[k], direction: ray.direction, t_max: self.t_max[k] }
     }
 }
 

@@ -232,29 +232,7 @@ impl Scene {
     #[must_use]
     pub fn occluded_packet(&self, rays: &[RaySegment]) -> u32 {
         assert!(rays.len() <= crate::accel::packet::PACKET);
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: the CPU has AVX2, which is all `occluded_packet_avx2` is compiled for.
-            return unsafe { self.occluded_packet_avx2(rays) };
-        }
-        self.occluded_packet_portable(rays)
-    }
-
-    /// [`Scene::occluded_packet`] compiled for AVX2: the spheres' and planes' lane loops
-    /// eight lanes wide (no FMA contraction: the same floats).
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    fn occluded_packet_avx2(&self, rays: &[RaySegment]) -> u32 {
-        self.occluded_packet_portable(rays)
-    }
-
-    #[inline(always)]
-    pub(crate) fn occluded_packet_portable(&self, rays: &[RaySegment]) -> u32 {
-        if self.top_level.is_some() || rays.len() < 2 {
-            return (0..rays.len()).fold(0, |m, k| m | u32::from(self.occluded(&rays[k].ray(), rays[k].t_min, rays[k].t_max)) << k);
-        }
-        let all = u32::MAX >> (32 - rays.len());
-        self.occluded_lanes_portable(&RayLanes::new(rays), all)
+        self.occluded_lanes(&RayLanes::new(rays), (1 << rays.len()) - 1)
     }
 
     /// The closest hit of object `i` in `[t_min, t_max)`: `(t, prim, u, v)`.
