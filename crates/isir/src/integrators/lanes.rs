@@ -21,6 +21,7 @@ use crate::math::color::Color;
 use crate::math::ray::{lanes_of, RayLanes, ShadowRays, LANES};
 use crate::math::sampling::Sampler;
 use crate::scene::Scene;
+use glam::Vec3;
 
 impl Integrator {
     /// The radiance along each of the first `samplers.len()` rays of `rays` (camera rays:
@@ -95,9 +96,19 @@ fn path_lanes(
     loop {
         let mut next = RayLanes::EMPTY;
         let mut ended = 0u32;
+        // Each vertex in two passes over the lanes, light gathered then direction sampled
+        // (each lane's random numbers drawn in the same order).
+        let mut wo = [Vec3::ZERO; LANES];
         for k in lanes_of(active) {
             let slot = defer.then_some(&mut deferred[k]);
-            if paths[k].step_deferring(scene, hits[k], light_samples, max_depth, &mut samplers[k], counters, slot) {
+            match paths[k].gather(scene, hits[k].as_ref(), light_samples, max_depth, &mut samplers[k], counters, slot) {
+                Some(w) => wo[k] = w,
+                None => ended |= 1 << k,
+            }
+        }
+        for k in lanes_of(active & !ended) {
+            let Some(hit) = &hits[k] else { unreachable!("a gathered lane has a hit") };
+            if paths[k].scatter(scene, hit, wo[k], &mut samplers[k], counters) {
                 let p = &paths[k];
                 next.set(k, p.ray.origin, p.ray.direction, p.t_min, p.t_max);
             } else {

@@ -116,6 +116,26 @@ impl Path {
         counters: &mut RayCounters,
         defer: Option<&mut Option<DeferredShadow>>,
     ) -> bool {
+        let Some(wo) = self.gather(scene, hit.as_ref(), light_samples, max_depth, sampler, counters, defer) else { return false };
+        let Some(hit) = &hit else { unreachable!("a gathered vertex has a hit") };
+        self.scatter(scene, hit, wo, sampler, counters)
+    }
+
+    /// The first half of a vertex ([`Path::step_deferring`]): the light met there (quad
+    /// lights on the way, the background, next-event estimation). Returns the direction
+    /// towards the ray's origin when the path goes on to [`Path::scatter`], `None` when it
+    /// ends here.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn gather(
+        &mut self,
+        scene: &Scene,
+        hit: Option<&Hit>,
+        light_samples: u32,
+        max_depth: u32,
+        sampler: &mut Sampler,
+        counters: &mut RayCounters,
+        defer: Option<&mut Option<DeferredShadow>>,
+    ) -> Option<Vec3> {
         let n_light = light_samples.max(1);
         // ---- Quad lights met before the surface (they block nothing) ----
         let t_hit = hit.map_or(self.t_max, |h| h.t);
@@ -129,25 +149,32 @@ impl Path {
         }
         let Some(hit) = hit else {
             self.l += self.beta * scene.background;
-            return false;
+            return None;
         };
         if self.depth >= max_depth {
-            return false;
+            return None;
         }
-        let material = scene.material(&hit);
+        let material = scene.material(hit);
         let wo = -self.ray.direction.normalize();
         if !material.is_delta() {
             let defer = defer.filter(|_| defers_shadow(scene));
             let mut deferred = None;
-            let sum = next_event(scene, &hit, material, wo, n_light, sampler, counters, defer.is_some().then_some(&mut deferred));
+            let sum = next_event(scene, hit, material, wo, n_light, sampler, counters, defer.is_some().then_some(&mut deferred));
             match (defer, deferred) {
                 (Some(slot), Some((ray, value))) => *slot = Some(DeferredShadow { ray, value, beta: self.beta }),
                 _ => self.l += self.beta * sum,
             }
         }
-        // ---- The next direction ----
+        Some(wo)
+    }
+
+    /// The second half of a vertex ([`Path::step_deferring`]): the BSDF-sampled
+    /// direction, the throughput, Russian roulette and the next ray. False when the path
+    /// ends here.
+    pub(super) fn scatter(&mut self, scene: &Scene, hit: &Hit, wo: Vec3, sampler: &mut Sampler, counters: &mut RayCounters) -> bool {
+        let material = scene.material(hit);
         let (u_lobe, u) = (sampler.next_f32(), sampler.next_2d());
-        let Some(bs) = material.sample(&hit, wo, u_lobe, u) else { return false };
+        let Some(bs) = material.sample(hit, wo, u_lobe, u) else { return false };
         if bs.weight == Color::ZERO || !(bs.delta || bs.pdf > 0.0) {
             return false;
         }
