@@ -106,9 +106,15 @@ fn path_lanes(
                 None => ended |= 1 << k,
             }
         }
-        for k in lanes_of(active & !ended) {
+        let going = active & !ended;
+        let mut bs = [None; LANES];
+        for k in lanes_of(going) {
             let Some(hit) = &hits[k] else { unreachable!("a gathered lane has a hit") };
-            if paths[k].scatter(scene, hit, wo[k], &mut samplers[k], counters) {
+            bs[k] = Path::sample_bsdf(scene, hit, wo[k], &mut samplers[k]);
+        }
+        for k in lanes_of(going) {
+            let Some(hit) = &hits[k] else { unreachable!("a gathered lane has a hit") };
+            if paths[k].advance(hit, bs[k], &mut samplers[k], counters) {
                 let p = &paths[k];
                 next.set(k, p.ray.origin, p.ray.direction, p.t_min, p.t_max);
             } else {

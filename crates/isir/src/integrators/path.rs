@@ -13,7 +13,7 @@ use super::shadow::{QuadBatch, BATCH, BATCH_FROM};
 use super::RayCounters;
 use crate::geometry::Hit;
 use crate::lights::{LightSample, LightSampler};
-use crate::materials::Material;
+use crate::materials::{BsdfSample, Material};
 use crate::math::color::Color;
 use crate::math::ray::{Ray, RaySegment};
 use crate::math::sampling::Sampler;
@@ -169,12 +169,24 @@ impl Path {
     }
 
     /// The second half of a vertex ([`Path::step_deferring`]): the BSDF-sampled
-    /// direction, the throughput, Russian roulette and the next ray. False when the path
+    /// direction ([`Path::sample_bsdf`]), then [`Path::advance`]. False when the path
     /// ends here.
     pub(super) fn scatter(&mut self, scene: &Scene, hit: &Hit, wo: Vec3, sampler: &mut Sampler, counters: &mut RayCounters) -> bool {
-        let material = scene.material(hit);
+        let bs = Path::sample_bsdf(scene, hit, wo, sampler);
+        self.advance(hit, bs, sampler, counters)
+    }
+
+    /// The BSDF sample at `hit` (its two random numbers drawn from `sampler`).
+    #[inline]
+    pub(super) fn sample_bsdf(scene: &Scene, hit: &Hit, wo: Vec3, sampler: &mut Sampler) -> Option<BsdfSample> {
         let (u_lobe, u) = (sampler.next_f32(), sampler.next_2d());
-        let Some(bs) = material.sample(hit, wo, u_lobe, u) else { return false };
+        scene.material(hit).sample(hit, wo, u_lobe, u)
+    }
+
+    /// The path past the BSDF sample `bs` at `hit`: the throughput, Russian roulette and
+    /// the next ray. False when the path ends here.
+    pub(super) fn advance(&mut self, hit: &Hit, bs: Option<BsdfSample>, sampler: &mut Sampler, counters: &mut RayCounters) -> bool {
+        let Some(bs) = bs else { return false };
         if bs.weight == Color::ZERO || !(bs.delta || bs.pdf > 0.0) {
             return false;
         }
