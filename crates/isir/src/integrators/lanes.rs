@@ -100,13 +100,17 @@ fn path_lanes(
         // (each lane's random numbers drawn in the same order).
         let mut wo = [Vec3::ZERO; LANES];
         for k in lanes_of(active) {
-            let slot = defer.then_some(&mut deferred[k]);
-            match paths[k].gather(scene, hits[k].as_ref(), light_samples, max_depth, &mut samplers[k], counters, slot) {
+            match paths[k].arrive(scene, hits[k].as_ref(), light_samples, max_depth) {
                 Some(w) => wo[k] = w,
                 None => ended |= 1 << k,
             }
         }
         let going = active & !ended;
+        for k in lanes_of(going) {
+            let Some(hit) = &hits[k] else { unreachable!("an arrived lane has a hit") };
+            let slot = defer.then_some(&mut deferred[k]);
+            paths[k].light_direct(scene, hit, wo[k], light_samples, &mut samplers[k], counters, slot);
+        }
         let mut bs = [None; LANES];
         for k in lanes_of(going) {
             let Some(hit) = &hits[k] else { unreachable!("a gathered lane has a hit") };

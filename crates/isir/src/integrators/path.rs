@@ -121,10 +121,10 @@ impl Path {
         self.scatter(scene, hit, wo, sampler, counters)
     }
 
-    /// The first half of a vertex ([`Path::step_deferring`]): the light met there (quad
-    /// lights on the way, the background, next-event estimation). Returns the direction
-    /// towards the ray's origin when the path goes on to [`Path::scatter`], `None` when it
-    /// ends here.
+    /// The first half of a vertex ([`Path::step_deferring`]): the light met there
+    /// ([`Path::arrive`]), then next-event estimation ([`Path::light_direct`]). Returns the
+    /// direction towards the ray's origin when the path goes on to [`Path::scatter`],
+    /// `None` when it ends here.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn gather(
         &mut self,
@@ -136,6 +136,16 @@ impl Path {
         counters: &mut RayCounters,
         defer: Option<&mut Option<DeferredShadow>>,
     ) -> Option<Vec3> {
+        let wo = self.arrive(scene, hit, light_samples, max_depth)?;
+        let Some(hit) = hit else { unreachable!("an arrived vertex has a hit") };
+        self.light_direct(scene, hit, wo, light_samples, sampler, counters, defer);
+        Some(wo)
+    }
+
+    /// A vertex reached: quad lights met on the way, the background when the ray met
+    /// nothing. Returns the direction towards the ray's origin when the path goes on,
+    /// `None` when it ends here.
+    pub(super) fn arrive(&mut self, scene: &Scene, hit: Option<&Hit>, light_samples: u32, max_depth: u32) -> Option<Vec3> {
         let n_light = light_samples.max(1);
         // ---- Quad lights met before the surface (they block nothing) ----
         let t_hit = hit.map_or(self.t_max, |h| h.t);
@@ -147,25 +157,40 @@ impl Path {
                 }
             }
         }
-        let Some(hit) = hit else {
+        let Some(_) = hit else {
             self.l += self.beta * scene.background;
             return None;
         };
         if self.depth >= max_depth {
             return None;
         }
+        Some(-self.ray.direction.normalize())
+    }
+
+    /// Next-event estimation at `hit` (none on a delta material), added to the path's
+    /// radiance, or left in `defer` as [`Path::step_deferring`] says.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn light_direct(
+        &mut self,
+        scene: &Scene,
+        hit: &Hit,
+        wo: Vec3,
+        light_samples: u32,
+        sampler: &mut Sampler,
+        counters: &mut RayCounters,
+        defer: Option<&mut Option<DeferredShadow>>,
+    ) {
         let material = scene.material(hit);
-        let wo = -self.ray.direction.normalize();
         if !material.is_delta() {
             let defer = defer.filter(|_| defers_shadow(scene));
             let mut deferred = None;
-            let sum = next_event(scene, hit, material, wo, n_light, sampler, counters, defer.is_some().then_some(&mut deferred));
+            let sum =
+                next_event(scene, hit, material, wo, light_samples.max(1), sampler, counters, defer.is_some().then_some(&mut deferred));
             match (defer, deferred) {
                 (Some(slot), Some((ray, value))) => *slot = Some(DeferredShadow { ray, value, beta: self.beta }),
                 _ => self.l += self.beta * sum,
             }
         }
-        Some(wo)
     }
 
     /// The second half of a vertex ([`Path::step_deferring`]): the BSDF-sampled
