@@ -340,13 +340,15 @@ mod tests {
                 desc.integrator,
                 Integrator::RayCast,
                 Integrator::DirectLighting { light_samples: 3 },
+                // Quad lights' samples two lanes to a stream (four to eight samples).
+                Integrator::DirectLighting { light_samples: 6 },
                 Integrator::Whitted { light_samples: 3, max_depth: 4 },
                 Integrator::Path { light_samples: 3, max_depth: 4 },
             ];
             let scene = desc.build(crate::Accel::BvhSah).unwrap();
             scenes += 1;
             for (i, integrator) in integrators.into_iter().enumerate() {
-                let spp = [1, 3, 16, 5][(i + name.len()) % 4];
+                let spp = [1, 3, 16, 5, 7][(i + name.len()) % 5];
                 let one = Renderer { lanes: false, ..Renderer::new(37, 23).spp(spp).seed(4) };
                 let camera = desc.camera.build(one.aspect());
                 let many = Renderer { lanes: true, ..one.clone() };

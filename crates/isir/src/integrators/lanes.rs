@@ -13,7 +13,7 @@
 
 use super::direct::quad_light;
 use super::path::{defers_shadow, DeferredShadow, Path};
-use super::shadow::{live_mask, PointBatch};
+use super::shadow::{live_mask, PointBatch, QuadBatch, BATCH, BATCH_FROM};
 use super::{whitted, Integrator, RayCounters};
 use crate::geometry::Hit;
 use crate::lights::LightSampler;
@@ -21,7 +21,7 @@ use crate::math::color::Color;
 use crate::math::ray::{lanes_of, RayLanes, ShadowRays, LANES};
 use crate::math::sampling::Sampler;
 use crate::scene::Scene;
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 impl Integrator {
     /// The radiance along each of the first `samplers.len()` rays of `rays` (camera rays:
@@ -177,6 +177,10 @@ fn direct_lanes(
         let light_sampler = light.sampler();
         if let LightSampler::Quad { .. } = light_sampler {
             let m = light_samples.max(1);
+            if (BATCH_FROM..=(BATCH / 2) as u32).contains(&m) {
+                quad_pairs(scene, rays, hits, &light_sampler, &shadow_rays, m as usize, samplers, counters, &mut li);
+                continue;
+            }
             for k in 0..n {
                 if let (Some(hit), Some(sr)) = (&hits[k], &mut shadow_rays[k]) {
                     let material = scene.material(hit);
@@ -209,5 +213,65 @@ fn direct_lanes(
             None => scene.background,
             Some(_) => li[k],
         };
+    }
+}
+
+/// A quad light of `m` samples, at most eight, in every lane with a hit (the conference
+/// room's eight): lanes two by two, each one's samples set up and shaded as
+/// [`quad_light`] does ([`QuadBatch`]), the two lanes' shadow rays traced as one stream
+/// of sixteen, then each lane's sum added to `li` as [`quad_light`] makes it (the same
+/// floats).
+/// PERF: the two lanes' hits are samples of one pixel: their rays share most nodes, and
+/// the stream's per-node work is done once for both.
+#[allow(clippy::too_many_arguments)]
+fn quad_pairs(
+    scene: &Scene,
+    rays: &RayLanes,
+    hits: &[Option<Hit>; LANES],
+    light_sampler: &LightSampler,
+    shadow_rays: &[Option<ShadowRays>; LANES],
+    m: usize,
+    samplers: &mut [Sampler],
+    counters: &mut RayCounters,
+    li: &mut [Color; LANES],
+) {
+    const HALF: usize = BATCH / 2;
+    debug_assert!(m <= HALF);
+    let n = samplers.len();
+    // Reused from pair to pair: `fill` rewrites the eight lanes used, the others stay zero.
+    let mut batches = [QuadBatch::EMPTY, QuadBatch::EMPTY];
+    let mut f = [[[0f32; BATCH]; 3]; 2];
+    for first in (0..n).step_by(2) {
+        let mut both = RayLanes::EMPTY;
+        let mut live = 0u32;
+        let mut filled = [false; 2];
+        for (i, k) in (first..(first + 2).min(n)).enumerate() {
+            let (Some(hit), Some(sr)) = (&hits[k], &shadow_rays[k]) else { continue };
+            let mut xi = [Vec2::ZERO; BATCH];
+            for x in &mut xi[..m] {
+                *x = samplers[k].next_2d();
+            }
+            let batch = &mut batches[i];
+            batch.fill(light_sampler, sr, hit.normal, &xi, m);
+            let lane_live = live_mask(&batch.live, m);
+            counters.shadow += u64::from(lane_live.count_ones());
+            live |= lane_live << (i * HALF);
+            for j in 0..m {
+                let r = batch.rays.segment(j);
+                both.set(i * HALF + j, r.origin, r.direction, r.t_min, r.t_max);
+            }
+            f[i] = batch.shade(scene.material(hit), &rays.ray(k), hit);
+            filled[i] = true;
+        }
+        let blocked = if live == 0 { 0 } else { scene.occluded_lanes(&both, live) };
+        for i in (0..2).filter(|&i| filled[i]) {
+            let (batch, f) = (&batches[i], &f[i]);
+            let seen = (live & !blocked) >> (i * HALF);
+            let mut sum = Color::ZERO;
+            for j in (0..m).filter(|&j| seen & (1 << j) != 0) {
+                sum += Color::new(f[0][j], f[1][j], f[2][j]) * batch.radiance(j) * batch.cos[j];
+            }
+            li[first + i] += sum / m as f32;
+        }
     }
 }

@@ -50,52 +50,64 @@ impl QuadBatch {
     /// PERF: eight lanes computed when `count` is at most 8 (the conference room's eight
     /// light samples): 5% of that render was this function computing all sixteen.
     pub(super) fn new(light: &LightSampler, rays: &ShadowRays, normal: Vec3, xi: &[Vec2; BATCH], count: usize) -> Self {
+        let mut b = QuadBatch::EMPTY;
+        b.fill(light, rays, normal, xi, count);
+        b
+    }
+
+    /// No sample: every array zero, no lane live.
+    pub(super) const EMPTY: QuadBatch = QuadBatch {
+        point: [[0.0; BATCH]; 3],
+        wi: [[0.0; BATCH]; 3],
+        distance: [0.0; BATCH],
+        pdf: [0.0; BATCH],
+        radiance: [[0.0; BATCH]; 3],
+        cos: [0.0; BATCH],
+        rays: RayLanes::EMPTY,
+        live: [false; BATCH],
+        has_ray: [false; BATCH],
+    };
+
+    /// [`QuadBatch::new`] in place: the lanes it computes (eight when `count` is at most
+    /// 8, else sixteen) are overwritten, the others left as they are.
+    pub(super) fn fill(&mut self, light: &LightSampler, rays: &ShadowRays, normal: Vec3, xi: &[Vec2; BATCH], count: usize) {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: the CPU has AVX2, which is all `new_avx2` is compiled for.
-            return unsafe {
+            // SAFETY: the CPU has AVX2, which is all `fill_avx2` is compiled for.
+            unsafe {
                 if count <= BATCH / 2 {
-                    Self::new_avx2::<{ BATCH / 2 }>(light, rays, normal, xi)
+                    self.fill_avx2::<{ BATCH / 2 }>(light, rays, normal, xi);
                 } else {
-                    Self::new_avx2::<BATCH>(light, rays, normal, xi)
+                    self.fill_avx2::<BATCH>(light, rays, normal, xi);
                 }
-            };
+            }
+            return;
         }
         if count <= BATCH / 2 {
-            Self::new_portable::<{ BATCH / 2 }>(light, rays, normal, xi)
+            self.fill_portable::<{ BATCH / 2 }>(light, rays, normal, xi);
         } else {
-            Self::new_portable::<BATCH>(light, rays, normal, xi)
+            self.fill_portable::<BATCH>(light, rays, normal, xi);
         }
     }
 
-    /// [`Self::new`] compiled for AVX2: the same operations eight lanes wide (no FMA
+    /// [`Self::fill`] compiled for AVX2: the same operations eight lanes wide (no FMA
     /// contraction, so the same floats).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn new_avx2<const W: usize>(light: &LightSampler, rays: &ShadowRays, normal: Vec3, xi: &[Vec2; BATCH]) -> Self {
-        Self::new_portable::<W>(light, rays, normal, xi)
+    fn fill_avx2<const W: usize>(&mut self, light: &LightSampler, rays: &ShadowRays, normal: Vec3, xi: &[Vec2; BATCH]) {
+        self.fill_portable::<W>(light, rays, normal, xi);
     }
 
-    /// The first `W` lanes (`W` at most [`BATCH`]; the others stay zero and not live).
+    /// The first `W` lanes (`W` at most [`BATCH`]; the others are left as they are).
     #[inline(always)]
     #[allow(clippy::needless_range_loop)] // one index into many arrays: the loops vectorise
-    fn new_portable<const W: usize>(light: &LightSampler, rays: &ShadowRays, normal: Vec3, xi: &[Vec2; BATCH]) -> Self {
+    fn fill_portable<const W: usize>(&mut self, light: &LightSampler, rays: &ShadowRays, normal: Vec3, xi: &[Vec2; BATCH]) {
         let LightSampler::Quad { corner, u, v, normal: ln, area, emitted } = *light else {
             unreachable!("quad lights only");
         };
         let (x, ng) = rays.surface();
         let [front, back] = rays.both_origins();
-        let mut b = QuadBatch {
-            point: [[0.0; BATCH]; 3],
-            wi: [[0.0; BATCH]; 3],
-            distance: [0.0; BATCH],
-            pdf: [0.0; BATCH],
-            radiance: [[0.0; BATCH]; 3],
-            cos: [0.0; BATCH],
-            rays: RayLanes::EMPTY,
-            live: [false; BATCH],
-            has_ray: [false; BATCH],
-        };
+        let b = self;
         // The operations of `LightSampler::sample`, `Vec3::dot`, `Vec3::length` and
         // `ShadowRays::to`, in their order, so every float is the same. Stage by stage
         // over the lanes, without branches, so that each loop vectorises.
@@ -147,7 +159,6 @@ impl QuadBatch {
             let some_radiance = b.radiance[0][j] != 0.0 || b.radiance[1][j] != 0.0 || b.radiance[2][j] != 0.0;
             b.live[j] = b.cos[j] != 0.0 && some_radiance && b.has_ray[j];
         }
-        b
     }
 
     /// Sample `j` as [`LightSampler::sample`] returns it.
@@ -346,7 +357,8 @@ mod tests {
             let mut rays = ShadowRays::new(p, err, ng);
             let batch = QuadBatch::new(&ls, &rays, normal, &xi, BATCH);
             // Both code paths where this CPU has both.
-            let portable = QuadBatch::new_portable::<BATCH>(&ls, &rays, normal, &xi);
+            let mut portable = QuadBatch::EMPTY;
+            portable.fill_portable::<BATCH>(&ls, &rays, normal, &xi);
             // Eight lanes (eight samples or fewer): the first eight of sixteen, no more.
             let half = QuadBatch::new(&ls, &rays, normal, &xi, BATCH / 2);
             for j in 0..BATCH {
