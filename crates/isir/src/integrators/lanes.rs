@@ -12,7 +12,7 @@
 //! CPU overlap them, and spheres and planes are tested against all the lanes at once.
 
 use super::direct::quad_light;
-use super::path::{defers_shadow, DeferredShadow, Path};
+use super::path::{defers_shadow, light_samplers, DeferredShadow, Path};
 use super::shadow::{live_mask, PointBatch, QuadBatch, BATCH, BATCH_FROM};
 use super::{whitted, Integrator, RayCounters};
 use crate::geometry::Hit;
@@ -89,10 +89,11 @@ fn path_lanes(
     let mut hits = first;
     let mut active: u32 = if n == 0 { 0 } else { u32::MAX >> (32 - n) };
     // A scene lit by one point light: each vertex's shadow ray is left for one
-    // `occluded_lanes` over the sixteen paths (`Path::step_deferring`).
+    // `occluded_lanes` over the sixteen paths (`Path::light_direct`).
     // PERF: only there: the bookkeeping made the quad-light scenes 2% slower.
     let defer = defers_shadow(scene);
     let mut deferred: [Option<DeferredShadow>; LANES] = [None; LANES];
+    let lights = light_samplers(scene);
     loop {
         let mut next = RayLanes::EMPTY;
         let mut ended = 0u32;
@@ -109,7 +110,7 @@ fn path_lanes(
         for k in lanes_of(going) {
             let Some(hit) = &hits[k] else { unreachable!("an arrived lane has a hit") };
             let slot = defer.then_some(&mut deferred[k]);
-            paths[k].light_direct(scene, hit, wo[k], light_samples, &mut samplers[k], counters, slot);
+            paths[k].light_direct(scene, &lights, hit, wo[k], light_samples, &mut samplers[k], counters, slot);
         }
         let mut bs = [None; LANES];
         for k in lanes_of(going) {

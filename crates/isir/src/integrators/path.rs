@@ -12,7 +12,7 @@
 use super::shadow::{QuadBatch, BATCH, BATCH_FROM};
 use super::RayCounters;
 use crate::geometry::Hit;
-use crate::lights::{LightSample, LightSampler};
+use crate::lights::{Light, LightSample, LightSampler};
 use crate::materials::{BsdfSample, Material};
 use crate::math::color::Color;
 use crate::math::ray::{Ray, RaySegment};
@@ -52,9 +52,16 @@ pub(super) fn li(
     counters: &mut RayCounters,
 ) -> Color {
     counters.primary += 1;
+    let lights = light_samplers(scene);
     let mut path = Path::new(ray, t_min, t_max);
-    while path.step(scene, scene.intersect(&path.ray, path.t_min, path.t_max), light_samples, max_depth, sampler, counters) {}
+    while path.step(scene, &lights, scene.intersect(&path.ray, path.t_min, path.t_max), light_samples, max_depth, sampler, counters) {}
     path.l
+}
+
+/// The samplers of the scene's lights, in order ([`Light::sampler`]: what sampling a
+/// light needs, computed once per path, or once per sixteen paths in lanes).
+pub(super) fn light_samplers(scene: &Scene) -> Vec<LightSampler> {
+    scene.lights.iter().map(Light::sampler).collect()
 }
 
 /// A path being traced: the ray to follow next and what the path has gathered so far.
@@ -85,61 +92,27 @@ impl Path {
         Path { ray: *ray, t_min, t_max, l: Color::ZERO, beta: Color::ONE, specular: true, bsdf_pdf: 0.0, depth: 0 }
     }
 
-    /// One vertex: `hit` is the closest hit of `self.ray`. Gathers the light met there and
-    /// sets up the next ray; false when the path ends.
+    /// One vertex: `hit` is the closest hit of `self.ray`, `lights` the samplers of the
+    /// scene's lights ([`light_samplers`]). Gathers the light met there and sets up the
+    /// next ray; false when the path ends. Four phases, which the lanes run phase by
+    /// phase over their sixteen paths: [`Path::arrive`], [`Path::light_direct`],
+    /// [`Path::sample_bsdf`], [`Path::advance`].
     #[allow(clippy::too_many_arguments)]
     pub(super) fn step(
         &mut self,
         scene: &Scene,
+        lights: &[LightSampler],
         hit: Option<Hit>,
         light_samples: u32,
         max_depth: u32,
         sampler: &mut Sampler,
         counters: &mut RayCounters,
     ) -> bool {
-        self.step_deferring(scene, hit, light_samples, max_depth, sampler, counters, None)
-    }
-
-    /// [`Path::step`], except that with `defer`, in a scene whose one light is a point
-    /// light, the vertex's shadow ray is not traced but left in `defer` (`None` when there
-    /// is none to trace) with what it would add; [`Path::finish_shadow`] adds it once the
-    /// ray is answered, before the path's next step. The lanes trace the shadow rays of
-    /// sixteen paths together this way.
-    #[allow(clippy::too_many_arguments)]
-    pub(super) fn step_deferring(
-        &mut self,
-        scene: &Scene,
-        hit: Option<Hit>,
-        light_samples: u32,
-        max_depth: u32,
-        sampler: &mut Sampler,
-        counters: &mut RayCounters,
-        defer: Option<&mut Option<DeferredShadow>>,
-    ) -> bool {
-        let Some(wo) = self.gather(scene, hit.as_ref(), light_samples, max_depth, sampler, counters, defer) else { return false };
-        let Some(hit) = &hit else { unreachable!("a gathered vertex has a hit") };
-        self.scatter(scene, hit, wo, sampler, counters)
-    }
-
-    /// The first half of a vertex ([`Path::step_deferring`]): the light met there
-    /// ([`Path::arrive`]), then next-event estimation ([`Path::light_direct`]). Returns the
-    /// direction towards the ray's origin when the path goes on to [`Path::scatter`],
-    /// `None` when it ends here.
-    #[allow(clippy::too_many_arguments)]
-    pub(super) fn gather(
-        &mut self,
-        scene: &Scene,
-        hit: Option<&Hit>,
-        light_samples: u32,
-        max_depth: u32,
-        sampler: &mut Sampler,
-        counters: &mut RayCounters,
-        defer: Option<&mut Option<DeferredShadow>>,
-    ) -> Option<Vec3> {
-        let wo = self.arrive(scene, hit, light_samples, max_depth)?;
-        let Some(hit) = hit else { unreachable!("an arrived vertex has a hit") };
-        self.light_direct(scene, hit, wo, light_samples, sampler, counters, defer);
-        Some(wo)
+        let Some(wo) = self.arrive(scene, hit.as_ref(), light_samples, max_depth) else { return false };
+        let Some(hit) = &hit else { unreachable!("an arrived vertex has a hit") };
+        self.light_direct(scene, lights, hit, wo, light_samples, sampler, counters, None);
+        let bs = Path::sample_bsdf(scene, hit, wo, sampler);
+        self.advance(hit, bs, sampler, counters)
     }
 
     /// A vertex reached: quad lights met on the way, the background when the ray met
@@ -168,11 +141,16 @@ impl Path {
     }
 
     /// Next-event estimation at `hit` (none on a delta material), added to the path's
-    /// radiance, or left in `defer` as [`Path::step_deferring`] says.
+    /// radiance. With `defer`, in a scene whose one light is a point light
+    /// ([`defers_shadow`]), the vertex's shadow ray is not traced but left in `defer`
+    /// (`None` when there is none to trace) with what it would add; [`Path::finish_shadow`]
+    /// adds it once the ray is answered, before the path's next phase that adds light.
+    /// The lanes trace the shadow rays of sixteen paths together this way.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn light_direct(
         &mut self,
         scene: &Scene,
+        lights: &[LightSampler],
         hit: &Hit,
         wo: Vec3,
         light_samples: u32,
@@ -184,21 +162,22 @@ impl Path {
         if !material.is_delta() {
             let defer = defer.filter(|_| defers_shadow(scene));
             let mut deferred = None;
-            let sum =
-                next_event(scene, hit, material, wo, light_samples.max(1), sampler, counters, defer.is_some().then_some(&mut deferred));
+            let sum = next_event(
+                scene,
+                lights,
+                hit,
+                material,
+                wo,
+                light_samples.max(1),
+                sampler,
+                counters,
+                defer.is_some().then_some(&mut deferred),
+            );
             match (defer, deferred) {
                 (Some(slot), Some((ray, value))) => *slot = Some(DeferredShadow { ray, value, beta: self.beta }),
                 _ => self.l += self.beta * sum,
             }
         }
-    }
-
-    /// The second half of a vertex ([`Path::step_deferring`]): the BSDF-sampled
-    /// direction ([`Path::sample_bsdf`]), then [`Path::advance`]. False when the path
-    /// ends here.
-    pub(super) fn scatter(&mut self, scene: &Scene, hit: &Hit, wo: Vec3, sampler: &mut Sampler, counters: &mut RayCounters) -> bool {
-        let bs = Path::sample_bsdf(scene, hit, wo, sampler);
-        self.advance(hit, bs, sampler, counters)
     }
 
     /// The BSDF sample at `hit` (its two random numbers drawn from `sampler`).
@@ -234,13 +213,13 @@ impl Path {
     }
 }
 
-/// True when [`Path::step_deferring`] can leave a vertex's shadow ray untraced: the scene
+/// True when [`Path::light_direct`] can leave a vertex's shadow ray untraced: the scene
 /// is lit by one point light (one shadow ray per vertex).
 pub(super) fn defers_shadow(scene: &Scene) -> bool {
     scene.lights.len() == 1 && !scene.lights[0].is_surface()
 }
 
-/// A point light's shadow ray left untraced by [`Path::step_deferring`]: the ray, what
+/// A point light's shadow ray left untraced by [`Path::light_direct`]: the ray, what
 /// its sample adds when the ray is not blocked, and the throughput at that vertex.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct DeferredShadow {
@@ -272,6 +251,7 @@ impl Path {
 #[allow(clippy::too_many_arguments)]
 fn next_event(
     scene: &Scene,
+    lights: &[LightSampler],
     hit: &Hit,
     material: &Material,
     wo: Vec3,
@@ -282,8 +262,7 @@ fn next_event(
 ) -> Color {
     let mut sum = Color::ZERO;
     let mut shadow_rays = hit.shadow_rays();
-    for light in &scene.lights {
-        let light_sampler = light.sampler();
+    for (light, light_sampler) in scene.lights.iter().zip(lights) {
         let n = if light.is_surface() { n_light } else { 1 };
         let mut acc = Color::ZERO;
         // What an unoccluded sample of BRDF value `f` brings.
@@ -320,7 +299,7 @@ fn next_event(
                 for x in &mut xi[..count] {
                     *x = sampler.next_2d();
                 }
-                let batch = QuadBatch::new(&light_sampler, &shadow_rays, hit.normal, &xi, count);
+                let batch = QuadBatch::new(light_sampler, &shadow_rays, hit.normal, &xi, count);
                 // The samples `visit` would trace, their shadow rays traced as one packet,
                 // then summed in order as `visit` sums them.
                 let mut f = [Color::ZERO; BATCH];

@@ -49,6 +49,7 @@ impl QuadBatch {
     /// `xi` holds there, or left zero).
     /// PERF: eight lanes computed when `count` is at most 8 (the conference room's eight
     /// light samples): 5% of that render was this function computing all sixteen.
+    #[inline(never)]
     pub(super) fn new(light: &LightSampler, rays: &ShadowRays, normal: Vec3, xi: &[Vec2; BATCH], count: usize) -> Self {
         let mut b = QuadBatch::EMPTY;
         b.fill(light, rays, normal, xi, count);

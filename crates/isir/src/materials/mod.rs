@@ -189,13 +189,7 @@ impl Material {
     /// The BRDF of the glossy and rough kinds, by the course's formulas.
     fn brdf(&self, n: Vec3, wo: Vec3, wi: Vec3) -> Color {
         match *self {
-            Material::Color(c) | Material::Lambert(c) => {
-                if n.dot(wo) > 0.0 && n.dot(wi) > 0.0 {
-                    c * FRAC_1_PI
-                } else {
-                    BLACK
-                }
-            }
+            Material::Color(c) | Material::Lambert(c) => lambert(c, n, wo, wi),
             Material::Matte { kd, sigma } => oren_nayar(kd, sigma, n, wo, wi),
             Material::Plastic { kd, ks, shininess, blinn } => plastic(kd, ks, shininess, blinn, n, wo, wi),
             Material::CookTorrance { kd, f0, roughness, metalness } => {
@@ -258,8 +252,12 @@ impl Material {
         if n.dot(wo) <= 0.0 || n.dot(wi) <= 0.0 {
             return BLACK;
         }
-        match self {
+        match *self {
             Material::Textured { .. } => self.color_at(hit) * FRAC_1_PI,
+            // PERF: inline: through the call to `brdf`, the normal went by the stack and
+            // was read back before its stores had retired (the path tracer's next-event
+            // estimation stalled there).
+            Material::Color(c) | Material::Lambert(c) => lambert(c, n, wo, wi),
             _ => self.brdf(n, wo, wi),
         }
     }
@@ -335,6 +333,16 @@ impl Material {
                 }
             }
         }
+    }
+}
+
+/// The Lambert BRDF of colour `c`: `c/π` where `wo` and `wi` are both above the surface.
+#[inline(always)]
+fn lambert(c: Color, n: Vec3, wo: Vec3, wi: Vec3) -> Color {
+    if n.dot(wo) > 0.0 && n.dot(wi) > 0.0 {
+        c * FRAC_1_PI
+    } else {
+        BLACK
     }
 }
 
