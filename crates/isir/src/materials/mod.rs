@@ -284,6 +284,7 @@ impl Material {
 
     /// Draw `wi` from `u_lobe` (which lobe) and `u` (where in it), uniform in `[0, 1)`.
     #[must_use]
+    #[inline]
     pub fn sample(&self, hit: &Hit, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BsdfSample> {
         let n = hit.normal;
         let cos_o = n.dot(wo);
