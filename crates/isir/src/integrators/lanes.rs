@@ -88,8 +88,8 @@ fn path_lanes(
     let mut paths: [Path; LANES] = std::array::from_fn(|k| Path::new(&rays.ray(k), rays.t_min[k], rays.t_max[k]));
     let mut hits = first;
     let mut active: u32 = if n == 0 { 0 } else { u32::MAX >> (32 - n) };
-    // A scene lit by one point light: each vertex's shadow ray is left for one
-    // `occluded_lanes` over the sixteen paths (`Path::light_direct`).
+    // A scene lit by one point light: the sixteen paths' samples and shadow rays set up
+    // together (`PointBatch`), the rays left for one `occluded_lanes` (`Path::defer_point`).
     // PERF: only there: the bookkeeping made the quad-light scenes 2% slower.
     let defer = defers_shadow(scene);
     let mut deferred: [Option<DeferredShadow>; LANES] = [None; LANES];
@@ -107,10 +107,25 @@ fn path_lanes(
             }
         }
         let going = active & !ended;
-        for k in lanes_of(going) {
-            let Some(hit) = &hits[k] else { unreachable!("an arrived lane has a hit") };
-            let slot = defer.then_some(&mut deferred[k]);
-            paths[k].light_direct(scene, &lights, hit, wo[k], light_samples, &mut samplers[k], counters, slot);
+        if defer {
+            // The point light's samples and shadow rays of every lane at once; each
+            // lane's two numbers drawn as `next_event` draws them (a point needs none).
+            let nee =
+                lanes_of(going).filter(|&k| hits[k].as_ref().is_some_and(|h| !scene.material(h).is_delta())).fold(0u32, |m, k| m | 1 << k);
+            for k in lanes_of(nee) {
+                samplers[k].next_2d();
+            }
+            let batch = PointBatch::new(&lights[0], &hits);
+            for k in lanes_of(nee) {
+                let Some(hit) = &hits[k] else { unreachable!("an arrived lane has a hit") };
+                let ray = batch.has_ray[k].then(|| batch.rays.segment(k));
+                deferred[k] = paths[k].defer_point(scene, hit, wo[k], &batch.sample(k), ray, counters);
+            }
+        } else {
+            for k in lanes_of(going) {
+                let Some(hit) = &hits[k] else { unreachable!("an arrived lane has a hit") };
+                paths[k].light_direct(scene, &lights, hit, wo[k], light_samples, &mut samplers[k], counters);
+            }
         }
         let mut bs = [None; LANES];
         for k in lanes_of(going) {

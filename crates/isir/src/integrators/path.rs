@@ -110,7 +110,7 @@ impl Path {
     ) -> bool {
         let Some(wo) = self.arrive(scene, hit.as_ref(), light_samples, max_depth) else { return false };
         let Some(hit) = &hit else { unreachable!("an arrived vertex has a hit") };
-        self.light_direct(scene, lights, hit, wo, light_samples, sampler, counters, None);
+        self.light_direct(scene, lights, hit, wo, light_samples, sampler, counters);
         let bs = Path::sample_bsdf(scene, hit, wo, sampler);
         self.advance(hit, bs, sampler, counters)
     }
@@ -141,11 +141,8 @@ impl Path {
     }
 
     /// Next-event estimation at `hit` (none on a delta material), added to the path's
-    /// radiance. With `defer`, in a scene whose one light is a point light
-    /// ([`defers_shadow`]), the vertex's shadow ray is not traced but left in `defer`
-    /// (`None` when there is none to trace) with what it would add; [`Path::finish_shadow`]
-    /// adds it once the ray is answered, before the path's next phase that adds light.
-    /// The lanes trace the shadow rays of sixteen paths together this way.
+    /// radiance. (In a scene lit by one point light, the lanes take this phase as
+    /// [`Path::defer_point`] instead, their shadow rays traced together.)
     #[allow(clippy::too_many_arguments)]
     pub(super) fn light_direct(
         &mut self,
@@ -156,27 +153,11 @@ impl Path {
         light_samples: u32,
         sampler: &mut Sampler,
         counters: &mut RayCounters,
-        defer: Option<&mut Option<DeferredShadow>>,
     ) {
         let material = scene.material(hit);
         if !material.is_delta() {
-            let defer = defer.filter(|_| defers_shadow(scene));
-            let mut deferred = None;
-            let sum = next_event(
-                scene,
-                lights,
-                hit,
-                material,
-                wo,
-                light_samples.max(1),
-                sampler,
-                counters,
-                defer.is_some().then_some(&mut deferred),
-            );
-            match (defer, deferred) {
-                (Some(slot), Some((ray, value))) => *slot = Some(DeferredShadow { ray, value, beta: self.beta }),
-                _ => self.l += self.beta * sum,
-            }
+            let sum = next_event(scene, lights, hit, material, wo, light_samples.max(1), sampler, counters);
+            self.l += self.beta * sum;
         }
     }
 
@@ -213,13 +194,13 @@ impl Path {
     }
 }
 
-/// True when [`Path::light_direct`] can leave a vertex's shadow ray untraced: the scene
-/// is lit by one point light (one shadow ray per vertex).
+/// True when the lanes can leave a vertex's shadow ray untraced ([`Path::defer_point`]):
+/// the scene is lit by one point light (one shadow ray per vertex).
 pub(super) fn defers_shadow(scene: &Scene) -> bool {
     scene.lights.len() == 1 && !scene.lights[0].is_surface()
 }
 
-/// A point light's shadow ray left untraced by [`Path::light_direct`]: the ray, what
+/// A point light's shadow ray left untraced by [`Path::defer_point`]: the ray, what
 /// its sample adds when the ray is not blocked, and the throughput at that vertex.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct DeferredShadow {
@@ -230,6 +211,34 @@ pub(super) struct DeferredShadow {
 }
 
 impl Path {
+    /// [`Path::light_direct`] in a scene lit by one point light ([`defers_shadow`]), given
+    /// that light's sample `ls` from `hit` and its shadow ray `ray` (`None` when there is
+    /// none), both as the light's sampler and `ShadowRays::to` make them: the shadow ray
+    /// left untraced, with what it adds ([`Path::finish_shadow`] adds it once the ray is
+    /// answered), or `None` after adding what the vertex adds without one. The same
+    /// operations as [`next_event`], so the same floats. The lanes set up the samples and
+    /// shadow rays of sixteen paths together ([`super::shadow::PointBatch`]) and trace
+    /// the rays in one `Scene::occluded_lanes`.
+    pub(super) fn defer_point(
+        &mut self,
+        scene: &Scene,
+        hit: &Hit,
+        wo: Vec3,
+        ls: &LightSample,
+        ray: Option<RaySegment>,
+        counters: &mut RayCounters,
+    ) -> Option<DeferredShadow> {
+        let material = scene.material(hit);
+        debug_assert!(!material.is_delta() && defers_shadow(scene));
+        if let (Some(f), Some(ray)) = (traced_f(material, hit, wo, ls), ray) {
+            counters.shadow += 1;
+            return Some(DeferredShadow { ray, value: unoccluded(ls, f, hit, 1.0), beta: self.beta });
+        }
+        // `next_event`'s sum without a deferred ray: zero (no sample reached the light).
+        self.l += self.beta * Color::ZERO;
+        None
+    }
+
     /// Adds what [`next_event`] would have added with the deferred shadow ray `d`
     /// answered: the same operations, so the same floats.
     pub(super) fn finish_shadow(&mut self, d: &DeferredShadow, blocked: bool) {
@@ -243,11 +252,25 @@ impl Path {
     }
 }
 
+/// The BRDF value of a light sample worth a shadow ray (some radiance, a valid pdf, a
+/// nonzero BRDF), `None` for one that is not.
+#[inline(always)]
+fn traced_f(material: &Material, hit: &Hit, wo: Vec3, ls: &LightSample) -> Option<Color> {
+    if ls.radiance == Color::ZERO || ls.pdf.is_nan() || ls.pdf <= 0.0 {
+        return None;
+    }
+    Some(material.eval(hit, wo, ls.direction)).filter(|&f| f != Color::ZERO)
+}
+
+/// What an unoccluded light sample of BRDF value `f` brings, with MIS weight `w`.
+#[inline(always)]
+fn unoccluded(ls: &LightSample, f: Color, hit: &Hit, w: f32) -> Color {
+    f * ls.radiance * ls.direction.dot(hit.normal).abs() * w
+}
+
 /// Light arriving at `hit` straight from the lights and leaving towards `wo`: for each
 /// light the average over its samples (`n_light` per quad light, one per point light) of
-/// `f · L · |cos| / pdf`, weighted against BSDF sampling for quad lights. With `defer`
-/// (a scene of one point light), a shadow ray to trace is not traced: it is left there
-/// with what its sample adds, and the sum returned leaves it out.
+/// `f · L · |cos| / pdf`, weighted against BSDF sampling for quad lights.
 #[allow(clippy::too_many_arguments)]
 fn next_event(
     scene: &Scene,
@@ -258,7 +281,6 @@ fn next_event(
     n_light: u32,
     sampler: &mut Sampler,
     counters: &mut RayCounters,
-    mut defer: Option<&mut Option<(RaySegment, Color)>>,
 ) -> Color {
     let mut sum = Color::ZERO;
     let mut shadow_rays = hit.shadow_rays();
@@ -268,24 +290,13 @@ fn next_event(
         // What an unoccluded sample of BRDF value `f` brings.
         let unoccluded = |ls: &LightSample, f: Color| {
             let w = if light.is_surface() { power_heuristic(n as f32, ls.pdf, 1.0, material.pdf(hit, wo, ls.direction)) } else { 1.0 };
-            f * ls.radiance * ls.direction.dot(hit.normal).abs() * w
+            unoccluded(ls, f, hit, w)
         };
-        // The BRDF value of a sample worth a shadow ray (some radiance, a valid pdf, a
-        // nonzero BRDF).
-        let traced_f = |ls: &LightSample| {
-            if ls.radiance == Color::ZERO || ls.pdf.is_nan() || ls.pdf <= 0.0 {
-                return None;
-            }
-            Some(material.eval(hit, wo, ls.direction)).filter(|&f| f != Color::ZERO)
-        };
+        let traced_f = |ls: &LightSample| traced_f(material, hit, wo, ls);
         let mut visit = |ls: &LightSample, ray: Option<(Ray, f32)>, acc: &mut Color| {
             let Some(f) = traced_f(ls) else { return };
             let Some((shadow, t_max)) = ray else { return };
             counters.shadow += 1;
-            if let Some(slot) = defer.as_deref_mut() {
-                *slot = Some((RaySegment { origin: shadow.origin, t_min: 0.0, direction: shadow.direction, t_max }, unoccluded(ls, f)));
-                return;
-            }
             if scene.occluded(&shadow, 0.0, t_max) {
                 return;
             }

@@ -226,6 +226,9 @@ pub(super) struct PointBatch {
     /// The lane has a hit, the light lights it (`cos > 0`, some radiance) and its shadow
     /// ray exists.
     pub(super) live: [bool; BATCH],
+    /// The lane's shadow ray exists (its target is finite and not its origin), as
+    /// [`ShadowRays::to`] says.
+    pub(super) has_ray: [bool; BATCH],
     position: Vec3,
 }
 
@@ -275,6 +278,7 @@ impl PointBatch {
             cos: [0.0; BATCH],
             rays: RayLanes::EMPTY,
             live: [false; BATCH],
+            has_ray: [false; BATCH],
             position,
         };
         // The operations of `LightSampler::sample` (point), `Vec3::dot`, `f32::max` and
@@ -306,6 +310,7 @@ impl PointBatch {
             b.distance[j] = d;
             b.cos[j] = cos;
             b.rays.t_max[j] = dist * (1.0 - 1e-4);
+            b.has_ray[j] = has_ray;
             b.live[j] = has[j] && cos != 0.0 && some_radiance && has_ray;
         }
         b
@@ -484,6 +489,15 @@ mod tests {
         assert!(lit > 10_000 && unlit > 5_000, "{lit} {unlit}");
     }
 
+    /// The bits of a light sample's floats.
+    fn sample_bits(s: &LightSample) -> Vec<u32> {
+        [s.direction.to_array(), [s.distance, s.pdf, 0.0], s.point.to_array(), s.radiance.to_array()]
+            .iter()
+            .flatten()
+            .map(|f| f.to_bits())
+            .collect()
+    }
+
     /// A point light's lanes are the samples and shadow rays of one hit at a time, bit for
     /// bit, on both code paths: hits on either side of their surface, on the light, beside
     /// it, far from it, lanes without a hit.
@@ -519,14 +533,18 @@ mod tests {
                 let ray = hit.shadow_rays().to(s.point);
                 let expected = cos != 0.0 && s.radiance != Color::ZERO && ray.is_some();
                 assert_eq!(batch.live[j], expected, "{hit:?}");
-                if expected {
-                    live += 1;
-                    let (ray, t_max) = ray.unwrap();
-                    for b in [&batch, &portable] {
-                        assert_eq!(b.sample(j), s);
-                        assert_eq!(b.cos[j].to_bits(), cos.to_bits());
+                // Every lane with a hit, live or not (the path tracer's lanes use them all).
+                for b in [&batch, &portable] {
+                    // Bit for bit (a hit on the light itself has NaN directions).
+                    assert_eq!(sample_bits(&b.sample(j)), sample_bits(&s));
+                    assert_eq!(b.cos[j].to_bits(), cos.to_bits());
+                    assert_eq!(b.has_ray[j], ray.is_some());
+                    if let Some((ray, t_max)) = ray {
                         assert_eq!(b.shadow_ray(j), RaySegment { origin: ray.origin, t_min: 0.0, direction: ray.direction, t_max });
                     }
+                }
+                if expected {
+                    live += 1;
                 } else {
                     dead += 1;
                 }
