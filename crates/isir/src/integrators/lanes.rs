@@ -101,7 +101,7 @@ fn path_lanes(
         // (each lane's random numbers drawn in the same order).
         let mut wo = [Vec3::ZERO; LANES];
         for k in lanes_of(active) {
-            match paths[k].arrive(scene, hits[k].as_ref(), light_samples, max_depth) {
+            match paths[k].arrive(scene, &lights, hits[k].as_ref(), light_samples, max_depth) {
                 Some(w) => wo[k] = w,
                 None => ended |= 1 << k,
             }

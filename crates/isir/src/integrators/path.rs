@@ -108,7 +108,7 @@ impl Path {
         sampler: &mut Sampler,
         counters: &mut RayCounters,
     ) -> bool {
-        let Some(wo) = self.arrive(scene, hit.as_ref(), light_samples, max_depth) else { return false };
+        let Some(wo) = self.arrive(scene, lights, hit.as_ref(), light_samples, max_depth) else { return false };
         let Some(hit) = &hit else { unreachable!("an arrived vertex has a hit") };
         self.light_direct(scene, lights, hit, wo, light_samples, sampler, counters);
         let bs = Path::sample_bsdf(scene, hit, wo, sampler);
@@ -118,11 +118,18 @@ impl Path {
     /// A vertex reached: quad lights met on the way, the background when the ray met
     /// nothing. Returns the direction towards the ray's origin when the path goes on,
     /// `None` when it ends here.
-    pub(super) fn arrive(&mut self, scene: &Scene, hit: Option<&Hit>, light_samples: u32, max_depth: u32) -> Option<Vec3> {
+    pub(super) fn arrive(
+        &mut self,
+        scene: &Scene,
+        lights: &[LightSampler],
+        hit: Option<&Hit>,
+        light_samples: u32,
+        max_depth: u32,
+    ) -> Option<Vec3> {
         let n_light = light_samples.max(1);
         // ---- Quad lights met before the surface (they block nothing) ----
         let t_hit = hit.map_or(self.t_max, |h| h.t);
-        for light in &scene.lights {
+        for light in lights {
             if let Some(lh) = light.intersect(&self.ray, self.t_min, t_hit) {
                 if lh.emitted != Color::ZERO {
                     let w = if self.specular { 1.0 } else { power_heuristic(1.0, self.bsdf_pdf, n_light as f32, lh.pdf) };

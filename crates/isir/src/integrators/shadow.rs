@@ -103,7 +103,7 @@ impl QuadBatch {
     #[inline(always)]
     #[allow(clippy::needless_range_loop)] // one index into many arrays: the loops vectorise
     fn fill_portable<const W: usize>(&mut self, light: &LightSampler, rays: &ShadowRays, normal: Vec3, xi: &[Vec2; BATCH]) {
-        let LightSampler::Quad { corner, u, v, normal: ln, area, emitted } = *light else {
+        let LightSampler::Quad { corner, u, v, normal: ln, area, emitted, .. } = *light else {
             unreachable!("quad lights only");
         };
         let (x, ng) = rays.surface();

@@ -90,7 +90,16 @@ impl Light {
                 // is |u|·|v|).
                 let c = u.cross(v);
                 let area = c.length();
-                LightSampler::Quad { corner, u, v, normal: c / area, area, emitted: color * power }
+                LightSampler::Quad {
+                    corner,
+                    u,
+                    v,
+                    normal: c / area,
+                    area,
+                    emitted: color * power,
+                    dual: [v.cross(c), c.cross(u)],
+                    c2: c.dot(c),
+                }
             }
         }
     }
@@ -121,6 +130,12 @@ pub enum LightSampler {
         area: f32,
         /// `colour·power`.
         emitted: Color,
+        /// The dual basis of `(u, v)` in the quad's plane, times `|u × v|²` (`c2`): `v × c`
+        /// and `c × u` with `c = u × v`. A point `p - corner` of the plane has coordinates
+        /// `p·dual[0] / c2` along `u` and `p·dual[1] / c2` along `v`.
+        dual: [Vec3; 2],
+        /// `|u × v|²`.
+        c2: f32,
     },
 }
 
@@ -135,7 +150,7 @@ impl LightSampler {
                 let d = to.length();
                 LightSample { direction: to / d, distance: d, point: position, radiance: emitted / (d * d), pdf: 1.0 }
             }
-            LightSampler::Quad { corner, u, v, normal, area, emitted } => {
+            LightSampler::Quad { corner, u, v, normal, area, emitted, .. } => {
                 let y = corner + xi.x * u + xi.y * v;
                 let to = y - x;
                 let d = to.length();
@@ -149,6 +164,39 @@ impl LightSampler {
                 LightSample { direction: wi, distance: d, point: y, radiance: emitted / pdf, pdf }
             }
         }
+    }
+}
+
+impl LightSampler {
+    /// [`Light::intersect`], with the quad's own geometry computed once (the same floats).
+    #[must_use]
+    pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<LightHit> {
+        let LightSampler::Quad { corner, normal: n, area, emitted, dual, c2, .. } = *self else { return None };
+        if area.is_nan() || area <= 0.0 {
+            return None;
+        }
+        let denom = n.dot(ray.direction);
+        if denom == 0.0 || !denom.is_finite() {
+            return None;
+        }
+        let t = n.dot(corner - ray.origin) / denom;
+        if !(t > t_min && t < t_max) {
+            return None;
+        }
+        // Coordinates of the hit in the (u, v) basis, through the dual basis.
+        let p = ray.at(t) - corner;
+        let a = p.dot(dual[0]) / c2;
+        let b = p.dot(dual[1]) / c2;
+        if !((0.0..=1.0).contains(&a) && (0.0..=1.0).contains(&b)) {
+            return None;
+        }
+        let len = ray.direction.length();
+        let cos = denom / len;
+        if cos <= 0.0 {
+            return Some(LightHit { t, emitted: Color::ZERO, pdf: 0.0 });
+        }
+        let d = t * len;
+        Some(LightHit { t, emitted, pdf: d * d / (area * cos) })
     }
 }
 
@@ -169,35 +217,7 @@ impl Light {
     /// A parallelogram `corner + a·u + b·v`, `a, b ∈ [0, 1]`.
     #[must_use]
     pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<LightHit> {
-        let Light::Quad { corner, u, v, .. } = *self else { return None };
-        let c = u.cross(v);
-        let area = c.length();
-        if area.is_nan() || area <= 0.0 {
-            return None;
-        }
-        let n = c / area;
-        let denom = n.dot(ray.direction);
-        if denom == 0.0 || !denom.is_finite() {
-            return None;
-        }
-        let t = n.dot(corner - ray.origin) / denom;
-        if !(t > t_min && t < t_max) {
-            return None;
-        }
-        // Coordinates of the hit in the (u, v) basis, through the dual basis.
-        let p = ray.at(t) - corner;
-        let a = p.dot(v.cross(c)) / c.dot(c);
-        let b = p.dot(c.cross(u)) / c.dot(c);
-        if !((0.0..=1.0).contains(&a) && (0.0..=1.0).contains(&b)) {
-            return None;
-        }
-        let len = ray.direction.length();
-        let cos = denom / len;
-        if cos <= 0.0 {
-            return Some(LightHit { t, emitted: Color::ZERO, pdf: 0.0 });
-        }
-        let d = t * len;
-        Some(LightHit { t, emitted: self.emitted_radiance(), pdf: d * d / (area * cos) })
+        self.sampler().intersect(ray, t_min, t_max)
     }
 }
 
