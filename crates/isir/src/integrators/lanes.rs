@@ -13,7 +13,7 @@
 
 use super::direct::quad_light;
 use super::path::{defers_shadow, light_samplers, DeferredShadow, Path};
-use super::shadow::{live_mask, PointBatch, QuadBatch, BATCH, BATCH_FROM};
+use super::shadow::{live_mask, LightLanes, QuadBatch, BATCH, BATCH_FROM};
 use super::{whitted, Integrator, RayCounters};
 use crate::geometry::Hit;
 use crate::lights::LightSampler;
@@ -89,11 +89,14 @@ fn path_lanes(
     let mut hits = first;
     let mut active: u32 = if n == 0 { 0 } else { u32::MAX >> (32 - n) };
     // A scene lit by one point light: the sixteen paths' samples and shadow rays set up
-    // together (`PointBatch`), the rays left for one `occluded_lanes` (`Path::defer_point`).
+    // together (`LightLanes`), the rays left for one `occluded_lanes` (`Path::defer_point`).
     // PERF: only there: the bookkeeping made the quad-light scenes 2% slower.
     let defer = defers_shadow(scene);
     let mut deferred: [Option<DeferredShadow>; LANES] = [None; LANES];
     let lights = light_samplers(scene);
+    // A scene lit by one quad light sampled fewer than `BATCH_FROM` times per vertex:
+    // each sample of the sixteen paths set up and traced together (`quad_nee_lanes`).
+    let quad_in_lanes = lights.len() == 1 && matches!(lights[0], LightSampler::Quad { .. }) && light_samples.max(1) < BATCH_FROM;
     loop {
         let mut next = RayLanes::EMPTY;
         let mut ended = 0u32;
@@ -115,12 +118,14 @@ fn path_lanes(
             for k in lanes_of(nee) {
                 samplers[k].next_2d();
             }
-            let batch = PointBatch::new(&lights[0], &hits);
+            let batch = LightLanes::new(&lights[0], &hits, &[Vec2::ZERO; BATCH]);
             for k in lanes_of(nee) {
                 let Some(hit) = &hits[k] else { unreachable!("an arrived lane has a hit") };
                 let ray = batch.has_ray[k].then(|| batch.rays.segment(k));
                 deferred[k] = paths[k].defer_point(scene, hit, wo[k], &batch.sample(k), ray, counters);
             }
+        } else if quad_in_lanes {
+            quad_nee_lanes(scene, &lights[0], &hits, &wo, going, light_samples.max(1), &mut paths, samplers, counters);
         } else {
             for k in lanes_of(going) {
                 let Some(hit) = &hits[k] else { unreachable!("an arrived lane has a hit") };
@@ -185,7 +190,7 @@ fn direct_lanes(
     let n = samplers.len();
     let mut li = [Color::ZERO; LANES];
     // Quad lights' shadow rays leave from each hit's offset origins (point lights set up
-    // theirs in `PointBatch`).
+    // theirs in `LightLanes`).
     let quads = scene.lights.iter().any(|l| l.is_surface());
     let mut shadow_rays: [Option<ShadowRays>; LANES] =
         std::array::from_fn(|k| if quads { hits[k].as_ref().map(Hit::shadow_rays) } else { None });
@@ -210,7 +215,7 @@ fn direct_lanes(
             // The sample's two numbers, drawn as one at a time draws them (a point needs none).
             samplers[k].next_2d();
         }
-        let batch = PointBatch::new(&light_sampler, hits);
+        let batch = LightLanes::new(&light_sampler, hits, &[Vec2::ZERO; BATCH]);
         let live = live_mask(&batch.live, n);
         counters.shadow += u64::from(live.count_ones());
         let blocked = scene.occluded_lanes(&batch.rays, live);
@@ -289,5 +294,52 @@ fn quad_pairs(
             }
             li[first + i] += sum / m as f32;
         }
+    }
+}
+
+/// Next-event estimation of the paths `going` ([`Path::light_direct`]) in a scene lit by
+/// the one quad light `light`, sampled `n` times per vertex (fewer than [`BATCH_FROM`]):
+/// sample by sample, every lane's sample and shadow ray set up together
+/// ([`LightLanes`]), the rays traced in one [`Scene::occluded_lanes`], each lane's sum
+/// made as `next_event` makes it (its random numbers drawn in the same order, the same
+/// floats).
+#[allow(clippy::too_many_arguments)]
+fn quad_nee_lanes(
+    scene: &Scene,
+    light: &LightSampler,
+    hits: &[Option<Hit>; LANES],
+    wo: &[Vec3; LANES],
+    going: u32,
+    n: u32,
+    paths: &mut [Path; LANES],
+    samplers: &mut [Sampler],
+    counters: &mut RayCounters,
+) {
+    let nee = lanes_of(going).filter(|&k| hits[k].as_ref().is_some_and(|h| !scene.material(h).is_delta())).fold(0u32, |m, k| m | 1 << k);
+    let mut acc = [Color::ZERO; LANES];
+    for _ in 0..n {
+        let mut xi = [Vec2::ZERO; BATCH];
+        for k in lanes_of(nee) {
+            xi[k] = samplers[k].next_2d();
+        }
+        let batch = LightLanes::new(light, hits, &xi);
+        let mut f = [Color::ZERO; LANES];
+        let mut traced = 0u32;
+        for k in lanes_of(nee) {
+            let Some(hit) = &hits[k] else { unreachable!("a lane with light has a hit") };
+            if let Some(fk) = Path::light_sample_f(scene, hit, wo[k], &batch.sample(k)).filter(|_| batch.has_ray[k]) {
+                f[k] = fk;
+                traced |= 1 << k;
+            }
+        }
+        counters.shadow += u64::from(traced.count_ones());
+        let blocked = if traced == 0 { 0 } else { scene.occluded_lanes(&batch.rays, traced) };
+        for k in lanes_of(traced & !blocked) {
+            let Some(hit) = &hits[k] else { unreachable!("a traced lane has a hit") };
+            acc[k] += Path::quad_sample_value(scene, hit, wo[k], &batch.sample(k), f[k], n);
+        }
+    }
+    for k in lanes_of(nee) {
+        paths[k].add_light_average(acc[k], n);
     }
 }

@@ -224,7 +224,7 @@ impl Path {
     /// left untraced, with what it adds ([`Path::finish_shadow`] adds it once the ray is
     /// answered), or `None` after adding what the vertex adds without one. The same
     /// operations as [`next_event`], so the same floats. The lanes set up the samples and
-    /// shadow rays of sixteen paths together ([`super::shadow::PointBatch`]) and trace
+    /// shadow rays of sixteen paths together ([`super::shadow::LightLanes`]) and trace
     /// the rays in one `Scene::occluded_lanes`.
     pub(super) fn defer_point(
         &mut self,
@@ -244,6 +244,28 @@ impl Path {
         // `next_event`'s sum without a deferred ray: zero (no sample reached the light).
         self.l += self.beta * Color::ZERO;
         None
+    }
+
+    /// The BRDF value at `hit` of the light sample `ls` when it is worth a shadow ray, as
+    /// [`next_event`] decides it (for the lanes, which set up the samples of many paths
+    /// together).
+    pub(super) fn light_sample_f(scene: &Scene, hit: &Hit, wo: Vec3, ls: &LightSample) -> Option<Color> {
+        traced_f(scene.material(hit), hit, wo, ls)
+    }
+
+    /// What the unoccluded sample `ls` (BRDF value `f`) of a quad light sampled `n` times
+    /// brings, weighted against BSDF sampling, as [`next_event`] computes it.
+    pub(super) fn quad_sample_value(scene: &Scene, hit: &Hit, wo: Vec3, ls: &LightSample, f: Color, n: u32) -> Color {
+        let w = power_heuristic(n as f32, ls.pdf, 1.0, scene.material(hit).pdf(hit, wo, ls.direction));
+        unoccluded(ls, f, hit, w)
+    }
+
+    /// Adds one light's part of [`next_event`]'s sum: `acc`, the sum of its `n` samples,
+    /// averaged (the same operations, so the same floats).
+    pub(super) fn add_light_average(&mut self, acc: Color, n: u32) {
+        let mut sum = Color::ZERO;
+        sum += acc / n as f32;
+        self.l += self.beta * sum;
     }
 
     /// Adds what [`next_event`] would have added with the deferred shadow ray `d`

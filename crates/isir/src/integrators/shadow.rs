@@ -211,14 +211,17 @@ pub(super) fn live_mask(live: &[bool; BATCH], count: usize) -> u32 {
     (0..count).filter(|&j| live[j]).fold(0, |m, j| m | 1 << j)
 }
 
-/// A point light seen from up to [`BATCH`] hits (one camera sample each, in lanes): the
-/// samples of [`LightSampler::sample`] and the shadow rays of [`ShadowRays::to`] of every
-/// hit, bit for bit, in straight-line loops the compiler turns into SIMD (AVX2 where the
-/// CPU has it, as [`QuadBatch`]).
-pub(super) struct PointBatch {
+/// One sample of a light from each of up to [`BATCH`] hits (one camera sample or one
+/// path each, in lanes): the samples of [`LightSampler::sample`] and the shadow rays of
+/// [`ShadowRays::to`] of every hit, bit for bit, in straight-line loops the compiler turns
+/// into SIMD (AVX2 where the CPU has it, as [`QuadBatch`]). A point light needs no random
+/// numbers; a quad light takes lane `j`'s sample from `xi[j]`.
+pub(super) struct LightLanes {
     wi: [[f32; BATCH]; 3],
     distance: [f32; BATCH],
+    point: [[f32; BATCH]; 3],
     radiance: [[f32; BATCH]; 3],
+    pdf: [f32; BATCH],
     /// `max(wi · n, 0)` with the hit's shading normal.
     pub(super) cos: [f32; BATCH],
     /// The shadow rays, in lanes (intervals from 0).
@@ -229,33 +232,30 @@ pub(super) struct PointBatch {
     /// The lane's shadow ray exists (its target is finite and not its origin), as
     /// [`ShadowRays::to`] says.
     pub(super) has_ray: [bool; BATCH],
-    position: Vec3,
 }
 
-impl PointBatch {
-    /// The point light `light` (a [`LightSampler::Point`]) seen from the hits `hits`.
-    pub(super) fn new(light: &LightSampler, hits: &[Option<Hit>; BATCH]) -> Self {
+impl LightLanes {
+    /// The light `light` seen from the hits `hits`, lane `j`'s sample drawn with `xi[j]`
+    /// (a point light ignores `xi`).
+    pub(super) fn new(light: &LightSampler, hits: &[Option<Hit>; BATCH], xi: &[Vec2; BATCH]) -> Self {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU has AVX2, which is all `new_avx2` is compiled for.
-            return unsafe { Self::new_avx2(light, hits) };
+            return unsafe { Self::new_avx2(light, hits, xi) };
         }
-        Self::new_portable(light, hits)
+        Self::new_portable(light, hits, xi)
     }
 
     /// [`Self::new`] compiled for AVX2 (no FMA contraction: the same floats).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn new_avx2(light: &LightSampler, hits: &[Option<Hit>; BATCH]) -> Self {
-        Self::new_portable(light, hits)
+    fn new_avx2(light: &LightSampler, hits: &[Option<Hit>; BATCH], xi: &[Vec2; BATCH]) -> Self {
+        Self::new_portable(light, hits, xi)
     }
 
     #[inline(always)]
     #[allow(clippy::needless_range_loop)] // one index into many arrays: the loops vectorise
-    fn new_portable(light: &LightSampler, hits: &[Option<Hit>; BATCH]) -> Self {
-        let LightSampler::Point { position, emitted } = *light else {
-            unreachable!("point lights only");
-        };
+    fn new_portable(light: &LightSampler, hits: &[Option<Hit>; BATCH], xi: &[Vec2; BATCH]) -> Self {
         // The hits as arrays (lanes without one: zeros, and not live).
         let (mut p, mut ng, mut sn, mut off) = ([[0f32; BATCH]; 3], [[0f32; BATCH]; 3], [[0f32; BATCH]; 3], [0f32; BATCH]);
         let mut has = [false; BATCH];
@@ -270,44 +270,78 @@ impl PointBatch {
                 off[j] = h.geometric_normal.x.abs() * e.x + h.geometric_normal.y.abs() * e.y + h.geometric_normal.z.abs() * e.z;
             }
         }
-        let (y, em) = (position.to_array(), emitted.to_array());
-        let mut b = PointBatch {
+        let mut b = LightLanes {
             wi: [[0.0; BATCH]; 3],
             distance: [0.0; BATCH],
+            point: [[0.0; BATCH]; 3],
             radiance: [[0.0; BATCH]; 3],
+            pdf: [0.0; BATCH],
             cos: [0.0; BATCH],
             rays: RayLanes::EMPTY,
             live: [false; BATCH],
             has_ray: [false; BATCH],
-            position,
         };
-        // The operations of `LightSampler::sample` (point), `Vec3::dot`, `f32::max` and
-        // `ShadowRays::to`, in their order, so every float is the same.
+        // The operations of `LightSampler::sample`, in its order, so every float is the
+        // same.
+        let mut to = [[0f32; BATCH]; 3];
+        match *light {
+            LightSampler::Point { position, emitted } => {
+                let (y, em) = (position.to_array(), emitted.to_array());
+                for j in 0..BATCH {
+                    let t = [y[0] - p[0][j], y[1] - p[1][j], y[2] - p[2][j]];
+                    let d = (t[0] * t[0] + t[1] * t[1] + t[2] * t[2]).sqrt();
+                    let d2 = d * d;
+                    for k in 0..3 {
+                        to[k][j] = t[k];
+                        b.point[k][j] = y[k];
+                        b.wi[k][j] = t[k] / d;
+                        b.radiance[k][j] = em[k] / d2;
+                    }
+                    b.distance[j] = d;
+                    b.pdf[j] = 1.0;
+                }
+            }
+            LightSampler::Quad { corner, u, v, normal, area, emitted, .. } => {
+                let (c, uu, vv, n, em) = (corner.to_array(), u.to_array(), v.to_array(), normal.to_array(), emitted.to_array());
+                for j in 0..BATCH {
+                    let y = [0, 1, 2].map(|k| c[k] + xi[j].x * uu[k] + xi[j].y * vv[k]);
+                    let t = [y[0] - p[0][j], y[1] - p[1][j], y[2] - p[2][j]];
+                    let d = (t[0] * t[0] + t[1] * t[1] + t[2] * t[2]).sqrt();
+                    let wi = [t[0] / d, t[1] / d, t[2] / d];
+                    let cl = n[0] * wi[0] + n[1] * wi[1] + n[2] * wi[2];
+                    // The back of the light (or NaN): nothing.
+                    let lit = cl > 0.0;
+                    let pdf = d * d / (area * cl);
+                    for k in 0..3 {
+                        to[k][j] = t[k];
+                        b.point[k][j] = y[k];
+                        b.wi[k][j] = wi[k];
+                        b.radiance[k][j] = if lit { em[k] / pdf } else { 0.0 };
+                    }
+                    b.distance[j] = d;
+                    b.pdf[j] = if lit { pdf } else { 0.0 };
+                }
+            }
+        }
+        // `Vec3::dot`, `f32::max` and `ShadowRays::to`, in their order.
         for j in 0..BATCH {
-            let to = [y[0] - p[0][j], y[1] - p[1][j], y[2] - p[2][j]];
-            let d = (to[0] * to[0] + to[1] * to[1] + to[2] * to[2]).sqrt();
-            let wi = [to[0] / d, to[1] / d, to[2] / d];
-            let d2 = d * d;
-            let rad = [em[0] / d2, em[1] / d2, em[2] / d2];
+            let (t, wi) = ([to[0][j], to[1][j], to[2][j]], [b.wi[0][j], b.wi[1][j], b.wi[2][j]]);
             let cos = (wi[0] * sn[0][j] + wi[1] * sn[1][j] + wi[2] * sn[2][j]).max(0.0);
             // The shadow ray: the origin offset to the side of the target.
-            let back = to[0] * ng[0][j] + to[1] * ng[1][j] + to[2] * ng[2][j] < 0.0;
+            let back = t[0] * ng[0][j] + t[1] * ng[1][j] + t[2] * ng[2][j] < 0.0;
             let mut o = [0f32; 3];
             for k in 0..3 {
                 let side = if back { -ng[k][j] } else { ng[k][j] };
                 o[k] = round_away(p[k][j] + off[j] * side, side);
             }
-            let t = [y[0] - o[0], y[1] - o[1], y[2] - o[2]];
-            let dist = (t[0] * t[0] + t[1] * t[1] + t[2] * t[2]).sqrt();
+            let r = [b.point[0][j] - o[0], b.point[1][j] - o[1], b.point[2][j] - o[2]];
+            let dist = (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt();
             let has_ray = dist > 0.0 && dist.is_finite();
-            let some_radiance = rad[0] != 0.0 || rad[1] != 0.0 || rad[2] != 0.0;
+            let some_radiance = b.radiance[0][j] != 0.0 || b.radiance[1][j] != 0.0 || b.radiance[2][j] != 0.0;
             for k in 0..3 {
-                b.wi[k][j] = wi[k];
-                b.radiance[k][j] = rad[k];
                 b.rays.o[k][j] = o[k];
-                b.rays.d[k][j] = t[k] / dist;
+                b.rays.d[k][j] = r[k] / dist;
             }
-            b.distance[j] = d;
             b.cos[j] = cos;
             b.rays.t_max[j] = dist * (1.0 - 1e-4);
             b.has_ray[j] = has_ray;
@@ -319,7 +353,13 @@ impl PointBatch {
     /// The sample of lane `j`, as [`LightSampler::sample`] returns it.
     pub(super) fn sample(&self, j: usize) -> LightSample {
         let at = |a: &[[f32; BATCH]; 3]| Vec3::new(a[0][j], a[1][j], a[2][j]);
-        LightSample { direction: at(&self.wi), distance: self.distance[j], point: self.position, radiance: at(&self.radiance), pdf: 1.0 }
+        LightSample {
+            direction: at(&self.wi),
+            distance: self.distance[j],
+            point: at(&self.point),
+            radiance: at(&self.radiance),
+            pdf: self.pdf[j],
+        }
     }
 
     /// The shadow ray of lane `j` with its interval, as [`ShadowRays::to`] gives it.
@@ -498,17 +538,29 @@ mod tests {
             .collect()
     }
 
-    /// A point light's lanes are the samples and shadow rays of one hit at a time, bit for
-    /// bit, on both code paths: hits on either side of their surface, on the light, beside
-    /// it, far from it, lanes without a hit.
+    /// A light's lanes (point and quad lights) are the samples and shadow rays of one hit
+    /// at a time, bit for bit, on both code paths: hits on either side of their surface,
+    /// on the light, beside it, far from it, behind a quad, lanes without a hit.
     #[test]
-    fn point_batches_are_the_samples_and_shadow_rays_of_one_at_a_time() {
+    fn light_lanes_are_the_samples_and_shadow_rays_of_one_at_a_time() {
         let mut rng = Sampler::from_seed(7);
         let (mut live, mut dead) = (0, 0);
-        for round in 0..3000 {
+        for round in 0..6000 {
             let mut r = || rng.next_f32() * 8.0 - 4.0;
             let position = Vec3::new(r(), r(), r());
-            let light = Light::Point { position, color: Vec3::new(1.0, 0.5, 0.0), power: 10.0 }.sampler();
+            let light = if round % 2 == 0 {
+                Light::Point { position, color: Vec3::new(1.0, 0.5, 0.0), power: 10.0 }
+            } else {
+                Light::Quad {
+                    corner: position,
+                    u: Vec3::new(r(), 0.0, r()),
+                    v: Vec3::new(0.0, r(), r()),
+                    color: Vec3::new(1.0, 0.5, 0.0),
+                    power: 10.0,
+                }
+            }
+            .sampler();
+            let xi: [Vec2; BATCH] = std::array::from_fn(|_| Vec2::new(r() / 8.0 + 0.5, r() / 8.0 + 0.5));
             let hits: [Option<Hit>; BATCH] = std::array::from_fn(|j| {
                 let ng = Vec3::new(r(), r(), r()).normalize();
                 let point = match (round + j) % 9 {
@@ -520,15 +572,15 @@ mod tests {
                 let point_error = Vec3::new(r().abs(), r().abs(), r().abs()) * 1e-6;
                 Some(test_hit(point, point_error, (ng + 0.3 * Vec3::new(r(), r(), r())).normalize(), ng))
             });
-            let batch = PointBatch::new(&light, &hits);
-            let portable = PointBatch::new_portable(&light, &hits);
+            let batch = LightLanes::new(&light, &hits, &xi);
+            let portable = LightLanes::new_portable(&light, &hits, &xi);
             for (j, hit) in hits.iter().enumerate() {
                 assert_eq!(batch.live[j], portable.live[j]);
                 let Some(hit) = hit else {
                     assert!(!batch.live[j]);
                     continue;
                 };
-                let s = light.sample(hit.point, Vec2::ZERO);
+                let s = light.sample(hit.point, xi[j]);
                 let cos = s.direction.dot(hit.normal).max(0.0);
                 let ray = hit.shadow_rays().to(s.point);
                 let expected = cos != 0.0 && s.radiance != Color::ZERO && ray.is_some();
