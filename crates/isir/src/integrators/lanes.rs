@@ -19,7 +19,7 @@ use crate::geometry::Hit;
 use crate::lights::LightSampler;
 use crate::math::color::Color;
 use crate::math::ray::{lanes_of, RayLanes, ShadowRays, LANES};
-use crate::math::sampling::Sampler;
+use crate::math::sampling::{cosine_hemisphere_lanes, Sampler};
 use crate::scene::Scene;
 use glam::{Vec2, Vec3};
 
@@ -132,10 +132,31 @@ fn path_lanes(
                 paths[k].light_direct(scene, &lights, hit, wo[k], light_samples, &mut samplers[k], counters);
             }
         }
+        // The BSDF samples: the cosine lobe's directions of all the lanes at once, the
+        // other materials' lane by lane (each lane's numbers drawn as `sample_bsdf` draws
+        // them).
         let mut bs = [None; LANES];
+        let (mut normals, mut xi, mut lobe) = ([[0f32; LANES]; 3], [Vec2::ZERO; LANES], 0u32);
         for k in lanes_of(going) {
             let Some(hit) = &hits[k] else { unreachable!("a gathered lane has a hit") };
-            bs[k] = Path::sample_bsdf(scene, hit, wo[k], &mut samplers[k]);
+            if scene.material(hit).samples_cosine_lobe() {
+                let (_u_lobe, u) = (samplers[k].next_f32(), samplers[k].next_2d());
+                for (axis, row) in normals.iter_mut().enumerate() {
+                    row[k] = hit.normal[axis];
+                }
+                xi[k] = u;
+                lobe |= 1 << k;
+            } else {
+                bs[k] = Path::sample_bsdf(scene, hit, wo[k], &mut samplers[k]);
+            }
+        }
+        if lobe != 0 {
+            let (wi, pdf) = cosine_hemisphere_lanes(&normals, &xi);
+            for k in lanes_of(lobe) {
+                let Some(hit) = &hits[k] else { unreachable!("a gathered lane has a hit") };
+                let w = Vec3::new(wi[0][k], wi[1][k], wi[2][k]);
+                bs[k] = scene.material(hit).cosine_lobe_sample_from(hit, wo[k], w, pdf[k]);
+            }
         }
         for k in lanes_of(going) {
             let Some(hit) = &hits[k] else { unreachable!("a gathered lane has a hit") };

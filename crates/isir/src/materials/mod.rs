@@ -282,6 +282,32 @@ impl Material {
         }
     }
 
+    /// True for the materials whose [`Material::sample`] draws from the cosine lobe alone
+    /// (Lambert's, the course's colours, textures).
+    #[must_use]
+    pub fn samples_cosine_lobe(&self) -> bool {
+        matches!(self, Material::Color(_) | Material::Lambert(_) | Material::Textured { .. })
+    }
+
+    /// [`Material::sample`]'s answer for a material that [`Material::samples_cosine_lobe`],
+    /// given the lobe's direction `wi` and its pdf (those of
+    /// [`square_to_cosine_hemisphere`], drawn for many hits at once by
+    /// [`crate::math::sampling::cosine_hemisphere_lanes`]): `None` when `wo` is below the
+    /// surface or the pdf is not positive.
+    #[must_use]
+    pub fn cosine_lobe_sample_from(&self, hit: &Hit, wo: Vec3, wi: Vec3, pdf: f32) -> Option<BsdfSample> {
+        if hit.normal.dot(wo) <= 0.0 {
+            return None;
+        }
+        self.cosine_lobe_sample(hit, wi, pdf)
+    }
+
+    #[inline(always)]
+    fn cosine_lobe_sample(&self, hit: &Hit, wi: Vec3, pdf: f32) -> Option<BsdfSample> {
+        // f·cos/pdf = (c/π)·cos / (cos/π) = c.
+        (pdf > 0.0).then_some(BsdfSample { wi, weight: self.color_at(hit), pdf, delta: false })
+    }
+
     /// Draw `wi` from `u_lobe` (which lobe) and `u` (where in it), uniform in `[0, 1)`.
     #[must_use]
     #[inline]
@@ -294,9 +320,7 @@ impl Material {
         match self {
             Material::Color(_) | Material::Lambert(_) | Material::Textured { .. } => {
                 let wi = square_to_cosine_hemisphere(n, u);
-                let pdf = square_to_cosine_hemisphere_pdf(n, wi);
-                // f·cos/pdf = (c/π)·cos / (cos/π) = c.
-                (pdf > 0.0).then_some(BsdfSample { wi, weight: self.color_at(hit), pdf, delta: false })
+                self.cosine_lobe_sample(hit, wi, square_to_cosine_hemisphere_pdf(n, wi))
             }
             Material::Matte { .. } | Material::Plastic { .. } | Material::CookTorrance { .. } => {
                 // A mixture: the cosine lobe, or the glossy one with probability p

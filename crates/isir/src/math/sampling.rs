@@ -5,6 +5,8 @@
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg32;
 
+use crate::math::ray::LANES;
+
 /// SplitMix64's finaliser: spreads nearby integers over all 64 bits.
 #[inline]
 fn mix(mut z: u64) -> u64 {
@@ -62,6 +64,66 @@ pub fn square_to_cosine_hemisphere_pdf(n: glam::Vec3, w: glam::Vec3) -> f32 {
     n.dot(w).max(0.0) * std::f32::consts::FRAC_1_PI
 }
 
+/// [`square_to_cosine_hemisphere`] and [`square_to_cosine_hemisphere_pdf`] for
+/// [`LANES`](crate::math::ray::LANES) normals side by side (`n[axis][k]`, uniform numbers
+/// `xi[k]`): the directions (`wi[axis][k]`) and their pdfs, bit for bit the scalar
+/// functions' (the same operations in the same order; the sines and cosines are the
+/// library's, lane by lane). The other loops run eight lanes wide where the CPU has AVX2.
+#[must_use]
+pub fn cosine_hemisphere_lanes(n: &[[f32; LANES]; 3], xi: &[glam::Vec2; LANES]) -> ([[f32; LANES]; 3], [f32; LANES]) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        #[target_feature(enable = "avx2")]
+        fn avx2(n: &[[f32; LANES]; 3], xi: &[glam::Vec2; LANES]) -> ([[f32; LANES]; 3], [f32; LANES]) {
+            cosine_hemisphere_lanes_portable(n, xi)
+        }
+        // SAFETY: the CPU has AVX2, which is all `avx2` is compiled for.
+        return unsafe { avx2(n, xi) };
+    }
+    cosine_hemisphere_lanes_portable(n, xi)
+}
+
+#[inline(always)]
+#[allow(clippy::needless_range_loop)] // one index into many arrays: the loops vectorise
+fn cosine_hemisphere_lanes_portable(n: &[[f32; LANES]; 3], xi: &[glam::Vec2; LANES]) -> ([[f32; LANES]; 3], [f32; LANES]) {
+    let (mut r, mut phi, mut z) = ([0f32; LANES], [0f32; LANES], [0f32; LANES]);
+    for k in 0..LANES {
+        r[k] = xi[k].x.sqrt();
+        phi[k] = 2.0 * std::f32::consts::PI * xi[k].y;
+        z[k] = (1.0 - xi[k].x).max(0.0).sqrt();
+    }
+    let (mut cos, mut sin) = ([0f32; LANES], [0f32; LANES]);
+    for k in 0..LANES {
+        (cos[k], sin[k]) = (phi[k].cos(), phi[k].sin());
+    }
+    let mut wi = [[0f32; LANES]; 3];
+    let mut pdf = [0f32; LANES];
+    for k in 0..LANES {
+        let (nx, ny, nz) = (n[0][k], n[1][k], n[2][k]);
+        let (x, y) = (r[k] * cos[k], r[k] * sin[k]);
+        // `Vec3::any_orthonormal_pair` (Duff et al.), as glam writes it.
+        let sign = if nz.is_nan() { f32::NAN } else { 1f32.copysign(nz) };
+        let a = -1.0 / (sign + nz);
+        let b = nx * ny * a;
+        let t = [1.0 + sign * nx * nx * a, sign * b, -sign * nx];
+        let bb = [b, sign + ny * ny * a, -ny];
+        let nn = [nx, ny, nz];
+        // No `array::map` here: out of line, it would keep the loop scalar.
+        let mut w = [0f32; 3];
+        for i in 0..3 {
+            w[i] = x * t[i] + y * bb[i] + z[k] * nn[i];
+        }
+        // `Vec3::normalize`: times the reciprocal of the length.
+        let recip = 1.0 / (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt();
+        for i in 0..3 {
+            w[i] *= recip;
+            wi[i][k] = w[i];
+        }
+        pdf[k] = (nx * w[0] + ny * w[1] + nz * w[2]).max(0.0) * std::f32::consts::FRAC_1_PI;
+    }
+    (wi, pdf)
+}
+
 /// A direction uniform on the unit sphere, from two uniform numbers (Archimedes: `z`
 /// uniform in [-1, 1]).
 #[must_use]
@@ -82,6 +144,38 @@ pub fn square_to_uniform_sphere_pdf() -> f32 {
 mod tests {
     use super::*;
     use glam::Vec3;
+
+    /// The lanes' cosine-lobe samples are the scalar functions', bit for bit (both code
+    /// paths where the CPU has AVX2), normals of every orientation, poles included.
+    #[test]
+    fn cosine_hemisphere_lanes_are_the_scalar_samples() {
+        let mut rng = Sampler::from_seed(3);
+        for round in 0..2000 {
+            let mut normals = [[0f32; LANES]; 3];
+            let mut xi = [glam::Vec2::ZERO; LANES];
+            for k in 0..LANES {
+                let n = match (round + k) % 7 {
+                    0 => Vec3::Z,
+                    1 => -Vec3::Z,
+                    2 => Vec3::new(1e-9, 0.0, -1.0).normalize(),
+                    _ => Vec3::new(rng.next_f32() - 0.5, rng.next_f32() - 0.5, rng.next_f32() - 0.5).normalize(),
+                };
+                for i in 0..3 {
+                    normals[i][k] = n[i];
+                }
+                xi[k] = rng.next_2d();
+            }
+            let lanes = cosine_hemisphere_lanes(&normals, &xi);
+            assert_eq!(cosine_hemisphere_lanes_portable(&normals, &xi), lanes);
+            for k in 0..LANES {
+                let n = Vec3::new(normals[0][k], normals[1][k], normals[2][k]);
+                let w = square_to_cosine_hemisphere(n, xi[k]);
+                let bits = |v: [f32; 3]| v.map(f32::to_bits);
+                assert_eq!(bits([lanes.0[0][k], lanes.0[1][k], lanes.0[2][k]]), bits(w.to_array()), "{n} {:?}", xi[k]);
+                assert_eq!(lanes.1[k].to_bits(), square_to_cosine_hemisphere_pdf(n, w).to_bits());
+            }
+        }
+    }
 
     #[test]
     fn same_pixel_same_numbers_other_pixels_differ() {
