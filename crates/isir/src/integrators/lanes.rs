@@ -92,7 +92,7 @@ fn path_lanes(
     // together (`LightLanes`), the rays left for one `occluded_lanes` (`Path::defer_point`).
     // PERF: only there: the bookkeeping made the quad-light scenes 2% slower.
     let defer = defers_shadow(scene);
-    let mut deferred: [Option<DeferredShadow>; LANES] = [None; LANES];
+    let mut deferred = [DeferredShadow::NONE; LANES];
     let lights = light_samplers(scene);
     // A scene lit by one quad light sampled fewer than `BATCH_FROM` times per vertex:
     // each sample of the sixteen paths set up and traced together (`quad_nee_lanes`).
@@ -110,6 +110,10 @@ fn path_lanes(
             }
         }
         let going = active & !ended;
+        // With one point light: its lanes (whose shadow rays the deferred samples trace)
+        // and the lanes whose samples wait for their ray.
+        let mut point = None;
+        let mut traced = 0u32;
         if defer {
             // The point light's samples and shadow rays of every lane at once; each
             // lane's two numbers drawn as `next_event` draws them (a point needs none).
@@ -118,11 +122,13 @@ fn path_lanes(
             for k in lanes_of(nee) {
                 samplers[k].next_2d();
             }
-            let batch = LightLanes::new(&lights[0], &hits, &[Vec2::ZERO; BATCH]);
+            let batch = point.insert(LightLanes::new(&lights[0], &hits, &[Vec2::ZERO; BATCH]));
             for k in lanes_of(nee) {
                 let Some(hit) = &hits[k] else { unreachable!("an arrived lane has a hit") };
-                let ray = batch.has_ray[k].then(|| batch.rays.segment(k));
-                deferred[k] = paths[k].defer_point(scene, hit, wo[k], &batch.sample(k), ray, counters);
+                if let Some(d) = paths[k].defer_point(scene, hit, wo[k], &batch.sample(k), batch.has_ray[k], counters) {
+                    deferred[k] = d;
+                    traced |= 1 << k;
+                }
             }
         } else if quad_in_lanes {
             quad_nee_lanes(scene, &lights[0], &hits, &wo, going, light_samples.max(1), &mut paths, samplers, counters);
@@ -167,21 +173,10 @@ fn path_lanes(
                 ended |= 1 << k;
             }
         }
-        if defer {
-            let mut shadow = RayLanes::EMPTY;
-            let mut traced = 0u32;
-            for (k, d) in deferred.iter_mut().enumerate() {
-                if let Some(d) = d {
-                    shadow.set(k, d.ray.origin, d.ray.direction, d.ray.t_min, d.ray.t_max);
-                    traced |= 1 << k;
-                }
-            }
-            if traced != 0 {
-                let blocked = scene.occluded_lanes(&shadow, traced);
-                for k in lanes_of(traced) {
-                    let Some(d) = deferred[k].take() else { unreachable!("a traced lane has its ray") };
-                    paths[k].finish_shadow(&d, blocked & (1 << k) != 0);
-                }
+        if let (Some(batch), true) = (&point, traced != 0) {
+            let blocked = scene.occluded_lanes(&batch.rays, traced);
+            for k in lanes_of(traced) {
+                paths[k].finish_shadow(&deferred[k], blocked & (1 << k) != 0);
             }
         }
         for k in lanes_of(ended) {

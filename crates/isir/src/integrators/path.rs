@@ -15,7 +15,7 @@ use crate::geometry::Hit;
 use crate::lights::{Light, LightSample, LightSampler};
 use crate::materials::{BsdfSample, Material};
 use crate::math::color::Color;
-use crate::math::ray::{Ray, RaySegment};
+use crate::math::ray::Ray;
 use crate::math::sampling::Sampler;
 use crate::scene::Scene;
 use glam::{Vec2, Vec3};
@@ -207,39 +207,46 @@ pub(super) fn defers_shadow(scene: &Scene) -> bool {
     scene.lights.len() == 1 && !scene.lights[0].is_surface()
 }
 
-/// A point light's shadow ray left untraced by [`Path::defer_point`]: the ray, what
-/// its sample adds when the ray is not blocked, and the throughput at that vertex.
+/// What a point light's shadow ray left untraced by [`Path::defer_point`] adds when it
+/// is not blocked, and the throughput at that vertex (the ray itself stays in the lanes'
+/// [`super::shadow::LightLanes`]).
 #[derive(Clone, Copy, Debug)]
 pub(super) struct DeferredShadow {
-    /// The shadow ray, `t` from 0.
-    pub(super) ray: RaySegment,
     value: Color,
     beta: Color,
 }
 
+impl DeferredShadow {
+    /// Nothing to add (a placeholder for lanes without a deferred ray).
+    pub(super) const NONE: DeferredShadow = DeferredShadow { value: Color::ZERO, beta: Color::ZERO };
+}
+
 impl Path {
     /// [`Path::light_direct`] in a scene lit by one point light ([`defers_shadow`]), given
-    /// that light's sample `ls` from `hit` and its shadow ray `ray` (`None` when there is
-    /// none), both as the light's sampler and `ShadowRays::to` make them: the shadow ray
-    /// left untraced, with what it adds ([`Path::finish_shadow`] adds it once the ray is
-    /// answered), or `None` after adding what the vertex adds without one. The same
+    /// that light's sample `ls` from `hit`, as the light's sampler makes it, and whether
+    /// `ShadowRays::to` gives it a shadow ray (`has_ray`): what the shadow ray, left
+    /// untraced, adds ([`Path::finish_shadow`] adds it once the ray is answered), or `None`
+    /// after adding what the vertex adds without one. The same
     /// operations as [`next_event`], so the same floats. The lanes set up the samples and
     /// shadow rays of sixteen paths together ([`super::shadow::LightLanes`]) and trace
     /// the rays in one `Scene::occluded_lanes`.
+    /// PERF: inlined into the lanes: its answer, returned through the stack, was copied
+    /// before the callee's stores had retired.
+    #[inline(always)]
     pub(super) fn defer_point(
         &mut self,
         scene: &Scene,
         hit: &Hit,
         wo: Vec3,
         ls: &LightSample,
-        ray: Option<RaySegment>,
+        has_ray: bool,
         counters: &mut RayCounters,
     ) -> Option<DeferredShadow> {
         let material = scene.material(hit);
         debug_assert!(!material.is_delta() && defers_shadow(scene));
-        if let (Some(f), Some(ray)) = (traced_f(material, hit, wo, ls), ray) {
+        if let Some(f) = traced_f(material, hit, wo, ls).filter(|_| has_ray) {
             counters.shadow += 1;
-            return Some(DeferredShadow { ray, value: unoccluded(ls, f, hit, 1.0), beta: self.beta });
+            return Some(DeferredShadow { value: unoccluded(ls, f, hit, 1.0), beta: self.beta });
         }
         // `next_event`'s sum without a deferred ray: zero (no sample reached the light).
         self.l += self.beta * Color::ZERO;
