@@ -16,9 +16,9 @@ use super::path::{defers_shadow, light_samplers, DeferredShadow, Path};
 use super::shadow::{live_mask, LightLanes, QuadBatch, BATCH, BATCH_FROM};
 use super::{whitted, Integrator, RayCounters};
 use crate::geometry::Hit;
-use crate::lights::LightSampler;
+use crate::lights::{Light, LightSampler};
 use crate::math::color::Color;
-use crate::math::ray::{lanes_of, RayLanes, ShadowRays, LANES};
+use crate::math::ray::{lanes_of, spawn_lanes, RayLanes, ShadowRays, SurfaceLanes, LANES};
 use crate::math::sampling::{cosine_hemisphere_lanes, Sampler};
 use crate::scene::Scene;
 use glam::{Vec2, Vec3};
@@ -85,7 +85,9 @@ fn path_lanes(
     out: &mut [Color],
 ) {
     let n = samplers.len();
-    let mut paths: [Path; LANES] = std::array::from_fn(|k| Path::new(&rays.ray(k), rays.t_min[k], rays.t_max[k]));
+    let mut paths = [Path::new(); LANES];
+    // The rays followed (the camera's, then each bounce's).
+    let mut cur = *rays;
     let mut hits = first;
     let mut active: u32 = if n == 0 { 0 } else { u32::MAX >> (32 - n) };
     // A scene lit by one point light: the sixteen paths' samples and shadow rays set up
@@ -96,6 +98,7 @@ fn path_lanes(
     let lights = light_samplers(scene);
     // A scene lit by one quad light sampled fewer than `BATCH_FROM` times per vertex:
     // each sample of the sixteen paths set up and traced together (`quad_nee_lanes`).
+    let surface_lights = scene.lights.iter().any(Light::is_surface);
     let quad_in_lanes = lights.len() == 1 && matches!(lights[0], LightSampler::Quad { .. }) && light_samples.max(1) < BATCH_FROM;
     loop {
         let mut next = RayLanes::EMPTY;
@@ -104,9 +107,15 @@ fn path_lanes(
         // (each lane's random numbers drawn in the same order).
         let mut wo = [Vec3::ZERO; LANES];
         for k in lanes_of(active) {
-            match paths[k].arrive(scene, &lights, hits[k].as_ref(), light_samples, max_depth) {
-                Some(w) => wo[k] = w,
-                None => ended |= 1 << k,
+            // `Path::arrive`, the ray read from the lanes only where a quad light may meet it.
+            if surface_lights {
+                let t_hit = hits[k].as_ref().map_or(cur.t_max[k], |h| h.t);
+                paths[k].meet_lights(&lights, &cur.ray(k), cur.t_min[k], t_hit, light_samples);
+            }
+            if paths[k].goes_on(scene, hits[k].as_ref(), max_depth) {
+                wo[k] = -Vec3::new(cur.d[0][k], cur.d[1][k], cur.d[2][k]).normalize();
+            } else {
+                ended |= 1 << k;
             }
         }
         let going = active & !ended;
@@ -164,15 +173,23 @@ fn path_lanes(
                 bs[k] = scene.material(hit).cosine_lobe_sample_from(hit, wo[k], w, pdf[k]);
             }
         }
+        // The paths that go on, and their next rays, all spawned together.
+        let (mut from, mut wi, mut spawned) = (SurfaceLanes::default(), [[0f32; LANES]; 3], 0u32);
         for k in lanes_of(going) {
-            let Some(hit) = &hits[k] else { unreachable!("a gathered lane has a hit") };
-            if paths[k].advance(hit, bs[k], &mut samplers[k], counters) {
-                let p = &paths[k];
-                next.set(k, p.ray.origin, p.ray.direction, p.t_min, p.t_max);
-            } else {
+            let Some(w) = paths[k].advance(bs[k], &mut samplers[k], counters) else {
                 ended |= 1 << k;
+                continue;
+            };
+            let Some(hit) = &hits[k] else { unreachable!("a gathered lane has a hit") };
+            for axis in 0..3 {
+                from.p[axis][k] = hit.point[axis];
+                from.p_error[axis][k] = hit.point_error[axis];
+                from.ng[axis][k] = hit.geometric_normal[axis];
+                wi[axis][k] = w[axis];
             }
+            spawned |= 1 << k;
         }
+        spawn_lanes(&from, &wi, spawned, &mut next);
         if let (Some(batch), true) = (&point, traced != 0) {
             let blocked = scene.occluded_lanes(&batch.rays, traced);
             for k in lanes_of(traced) {
@@ -188,6 +205,7 @@ fn path_lanes(
         }
         let closest = scene.intersect_lanes(&next, LANES);
         hits = scene.lane_hits(&next, &closest, LANES);
+        cur = next;
     }
 }
 

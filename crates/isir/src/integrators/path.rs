@@ -53,8 +53,13 @@ pub(super) fn li(
 ) -> Color {
     counters.primary += 1;
     let lights = light_samplers(scene);
-    let mut path = Path::new(ray, t_min, t_max);
-    while path.step(scene, &lights, scene.intersect(&path.ray, path.t_min, path.t_max), light_samples, max_depth, sampler, counters) {}
+    let mut path = Path::new();
+    let (mut ray, mut t_min, mut t_max) = (*ray, t_min, t_max);
+    while let Some(next) =
+        path.step(scene, &lights, &ray, t_min, t_max, scene.intersect(&ray, t_min, t_max), light_samples, max_depth, sampler, counters)
+    {
+        (ray, t_min, t_max) = (next, 0.0, f32::INFINITY);
+    }
     path.l
 }
 
@@ -64,15 +69,11 @@ pub(super) fn light_samplers(scene: &Scene) -> Vec<LightSampler> {
     scene.lights.iter().map(Light::sampler).collect()
 }
 
-/// A path being traced: the ray to follow next and what the path has gathered so far.
+/// A path being traced: what it has gathered so far (the ray it follows is the caller's).
 /// [`li`] steps one path to its end; the lanes step sixteen paths side by side, each
 /// bounce's hits found together.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Path {
-    /// The ray to follow, in `[t_min, t_max)`.
-    pub(super) ray: Ray,
-    pub(super) t_min: f32,
-    pub(super) t_max: f32,
     /// The radiance gathered.
     pub(super) l: Color,
     /// The throughput.
@@ -80,71 +81,91 @@ pub(super) struct Path {
     /// The camera ray and rays from delta lobes: emitters they meet count fully (no light
     /// sampling could have found them).
     specular: bool,
-    /// The solid-angle pdf of the BSDF sample that made `ray`.
+    /// The solid-angle pdf of the BSDF sample that made the ray followed.
     bsdf_pdf: f32,
     /// BSDF-sampled rays so far.
     depth: u32,
 }
 
 impl Path {
-    /// A path starting with the camera ray `ray`.
-    pub(super) fn new(ray: &Ray, t_min: f32, t_max: f32) -> Path {
-        Path { ray: *ray, t_min, t_max, l: Color::ZERO, beta: Color::ONE, specular: true, bsdf_pdf: 0.0, depth: 0 }
+    /// A path starting at the camera.
+    pub(super) fn new() -> Path {
+        Path { l: Color::ZERO, beta: Color::ONE, specular: true, bsdf_pdf: 0.0, depth: 0 }
     }
 
-    /// One vertex: `hit` is the closest hit of `self.ray`, `lights` the samplers of the
-    /// scene's lights ([`light_samplers`]). Gathers the light met there and sets up the
-    /// next ray; false when the path ends. Four phases, which the lanes run phase by
-    /// phase over their sixteen paths: [`Path::arrive`], [`Path::light_direct`],
-    /// [`Path::sample_bsdf`], [`Path::advance`].
+    /// One vertex: `hit` is the closest hit of `ray` in `[t_min, t_max)`, `lights` the
+    /// samplers of the scene's lights ([`light_samplers`]). Gathers the light met there;
+    /// returns the next ray (`t` from 0 to ∞), `None` when the path ends. Four phases,
+    /// which the lanes run phase by phase over their sixteen paths: [`Path::arrive`],
+    /// [`Path::light_direct`], [`Path::sample_bsdf`], [`Path::advance`] (then the ray,
+    /// [`Hit::spawn_ray`]).
     #[allow(clippy::too_many_arguments)]
     pub(super) fn step(
         &mut self,
         scene: &Scene,
         lights: &[LightSampler],
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
         hit: Option<Hit>,
         light_samples: u32,
         max_depth: u32,
         sampler: &mut Sampler,
         counters: &mut RayCounters,
-    ) -> bool {
-        let Some(wo) = self.arrive(scene, lights, hit.as_ref(), light_samples, max_depth) else { return false };
+    ) -> Option<Ray> {
+        let wo = self.arrive(scene, lights, ray, t_min, t_max, hit.as_ref(), light_samples, max_depth)?;
         let Some(hit) = &hit else { unreachable!("an arrived vertex has a hit") };
         self.light_direct(scene, lights, hit, wo, light_samples, sampler, counters);
         let bs = Path::sample_bsdf(scene, hit, wo, sampler);
-        self.advance(hit, bs, sampler, counters)
+        let wi = self.advance(bs, sampler, counters)?;
+        Some(hit.spawn_ray(wi))
     }
 
-    /// A vertex reached: quad lights met on the way, the background when the ray met
-    /// nothing. Returns the direction towards the ray's origin when the path goes on,
-    /// `None` when it ends here.
+    /// A vertex reached by `ray` (in `[t_min, t_max)`, its closest hit `hit`): quad lights
+    /// met on the way ([`Path::meet_lights`]), the background when the ray met nothing.
+    /// Returns the direction towards the ray's origin when the path goes on, `None` when
+    /// it ends here.
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn arrive(
         &mut self,
         scene: &Scene,
         lights: &[LightSampler],
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
         hit: Option<&Hit>,
         light_samples: u32,
         max_depth: u32,
     ) -> Option<Vec3> {
+        self.meet_lights(lights, ray, t_min, hit.map_or(t_max, |h| h.t), light_samples);
+        self.goes_on(scene, hit, max_depth).then(|| -ray.direction.normalize())
+    }
+
+    /// The quad lights `ray` meets in `(t_min, t_hit)` (they block nothing): their
+    /// emission, weighted against light sampling unless the ray is the camera's or
+    /// specular.
+    #[inline(always)]
+    pub(super) fn meet_lights(&mut self, lights: &[LightSampler], ray: &Ray, t_min: f32, t_hit: f32, light_samples: u32) {
         let n_light = light_samples.max(1);
-        // ---- Quad lights met before the surface (they block nothing) ----
-        let t_hit = hit.map_or(self.t_max, |h| h.t);
         for light in lights {
-            if let Some(lh) = light.intersect(&self.ray, self.t_min, t_hit) {
+            if let Some(lh) = light.intersect(ray, t_min, t_hit) {
                 if lh.emitted != Color::ZERO {
                     let w = if self.specular { 1.0 } else { power_heuristic(1.0, self.bsdf_pdf, n_light as f32, lh.pdf) };
                     self.l += self.beta * lh.emitted * w;
                 }
             }
         }
-        let Some(_) = hit else {
+    }
+
+    /// The background when the ray met nothing; false when the path ends here (no hit, or
+    /// `max_depth` reached).
+    #[inline(always)]
+    pub(super) fn goes_on(&mut self, scene: &Scene, hit: Option<&Hit>, max_depth: u32) -> bool {
+        if hit.is_none() {
             self.l += self.beta * scene.background;
-            return None;
-        };
-        if self.depth >= max_depth {
-            return None;
+            return false;
         }
-        Some(-self.ray.direction.normalize())
+        self.depth < max_depth
     }
 
     /// Next-event estimation at `hit` (none on a delta material), added to the path's
@@ -175,12 +196,12 @@ impl Path {
         scene.material(hit).sample(hit, wo, u_lobe, u)
     }
 
-    /// The path past the BSDF sample `bs` at `hit`: the throughput, Russian roulette and
-    /// the next ray. False when the path ends here.
-    pub(super) fn advance(&mut self, hit: &Hit, bs: Option<BsdfSample>, sampler: &mut Sampler, counters: &mut RayCounters) -> bool {
-        let Some(bs) = bs else { return false };
+    /// The path past the BSDF sample `bs`: the throughput and Russian roulette. Returns
+    /// the direction of the next ray, `None` when the path ends here.
+    pub(super) fn advance(&mut self, bs: Option<BsdfSample>, sampler: &mut Sampler, counters: &mut RayCounters) -> Option<Vec3> {
+        let bs = bs?;
         if bs.weight == Color::ZERO || !(bs.delta || bs.pdf > 0.0) {
-            return false;
+            return None;
         }
         self.beta *= bs.weight;
         self.specular = bs.delta;
@@ -190,14 +211,12 @@ impl Path {
             // Survive with probability max(β) (capped at 1) and carry 1/p more: unbiased.
             let p = self.beta.max_element().min(1.0);
             if p.is_nan() || sampler.next_f32() >= p {
-                return false;
+                return None;
             }
             self.beta /= p;
         }
         counters.secondary += 1;
-        self.ray = hit.spawn_ray(bs.wi);
-        (self.t_min, self.t_max) = (0.0, f32::INFINITY);
-        true
+        Some(bs.wi)
     }
 }
 
