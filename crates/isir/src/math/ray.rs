@@ -532,4 +532,42 @@ mod tests {
             assert_eq!(rays.to(Vec3::splat(f32::NAN)), None);
         }
     }
+
+    /// `spawn_lanes` gives `spawn_ray`'s rays bit for bit in the lanes asked for (both code
+    /// paths where the CPU has AVX2: points known exactly, directions along the surface,
+    /// on either side), zero rays in the others.
+    #[test]
+    fn spawned_lanes_are_the_rays_of_spawn_ray() {
+        let mut rng = crate::math::sampling::Sampler::from_seed(11);
+        for round in 0..2000u32 {
+            let mut r = || rng.next_f32() * 20.0 - 10.0;
+            let (mut from, mut w) = (SurfaceLanes::default(), [[0f32; LANES]; 3]);
+            let mut want = Vec::new();
+            for k in 0..LANES {
+                let p = if k % 5 == 0 { Vec3::ZERO } else { Vec3::new(r(), r(), r()) };
+                let err = if k % 5 == 0 { Vec3::ZERO } else { Vec3::new(r().abs(), r().abs(), r().abs()) * 1e-5 };
+                let ng = Vec3::new(r(), r(), r()).normalize();
+                let dir = if k % 7 == 0 { ng.cross(Vec3::X).normalize() } else { Vec3::new(r(), r(), r()).normalize() };
+                for axis in 0..3 {
+                    (from.p[axis][k], from.p_error[axis][k], from.ng[axis][k], w[axis][k]) = (p[axis], err[axis], ng[axis], dir[axis]);
+                }
+                want.push(spawn_ray(p, err, ng, dir));
+            }
+            let mask = round.wrapping_mul(0x9e37_79b9) & 0xffff;
+            let (mut lanes, mut portable) = (RayLanes::EMPTY, RayLanes::EMPTY);
+            spawn_lanes(&from, &w, mask, &mut lanes);
+            spawn_lanes_portable(&from, &w, mask, &mut portable);
+            assert!((0..LANES).all(|k| lanes.segment(k) == portable.segment(k)));
+            for (k, ray) in want.iter().enumerate() {
+                if mask & (1 << k) != 0 {
+                    assert_eq!(
+                        lanes.segment(k),
+                        RaySegment { origin: ray.origin, t_min: 0.0, direction: ray.direction, t_max: f32::INFINITY }
+                    );
+                } else {
+                    assert_eq!(lanes.segment(k), RaySegment { origin: Vec3::ZERO, t_min: 0.0, direction: Vec3::ZERO, t_max: 0.0 });
+                }
+            }
+        }
+    }
 }
