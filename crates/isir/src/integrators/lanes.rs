@@ -106,12 +106,18 @@ fn path_lanes(
         // Each vertex in two passes over the lanes, light gathered then direction sampled
         // (each lane's random numbers drawn in the same order).
         let mut wo = [Vec3::ZERO; LANES];
-        for k in lanes_of(active) {
-            // `Path::arrive`, the ray read from the lanes only where a quad light may meet it.
-            if surface_lights {
-                let t_hit = hits[k].as_ref().map_or(cur.t_max[k], |h| h.t);
-                paths[k].meet_lights(&lights, &cur.ray(k), cur.t_min[k], t_hit, light_samples);
+        // `Path::arrive`: the quad lights met by all the lanes at once, light by light.
+        if surface_lights {
+            let t_hit: [f32; LANES] = std::array::from_fn(|k| hits[k].as_ref().map_or(cur.t_max[k], |h| h.t));
+            for light in &lights {
+                let met = light.intersect_lanes(&cur, &t_hit, active);
+                for k in lanes_of(met.met) {
+                    let Some(lh) = met.hit(k, light.emitted()) else { unreachable!("a lane that met the light has its hit") };
+                    paths[k].meet_light(&lh, light_samples);
+                }
             }
+        }
+        for k in lanes_of(active) {
             if paths[k].goes_on(scene, hits[k].as_ref(), max_depth) {
                 wo[k] = -Vec3::new(cur.d[0][k], cur.d[1][k], cur.d[2][k]).normalize();
             } else {

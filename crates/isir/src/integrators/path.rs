@@ -12,7 +12,7 @@
 use super::shadow::{QuadBatch, BATCH, BATCH_FROM};
 use super::RayCounters;
 use crate::geometry::Hit;
-use crate::lights::{Light, LightSample, LightSampler};
+use crate::lights::{Light, LightHit, LightSample, LightSampler};
 use crate::materials::{BsdfSample, Material};
 use crate::math::color::Color;
 use crate::math::ray::Ray;
@@ -146,14 +146,19 @@ impl Path {
     /// specular.
     #[inline(always)]
     pub(super) fn meet_lights(&mut self, lights: &[LightSampler], ray: &Ray, t_min: f32, t_hit: f32, light_samples: u32) {
-        let n_light = light_samples.max(1);
         for light in lights {
             if let Some(lh) = light.intersect(ray, t_min, t_hit) {
-                if lh.emitted != Color::ZERO {
-                    let w = if self.specular { 1.0 } else { power_heuristic(1.0, self.bsdf_pdf, n_light as f32, lh.pdf) };
-                    self.l += self.beta * lh.emitted * w;
-                }
+                self.meet_light(&lh, light_samples);
             }
+        }
+    }
+
+    /// What a quad light met by the ray (`lh`) adds.
+    #[inline(always)]
+    pub(super) fn meet_light(&mut self, lh: &LightHit, light_samples: u32) {
+        if lh.emitted != Color::ZERO {
+            let w = if self.specular { 1.0 } else { power_heuristic(1.0, self.bsdf_pdf, light_samples.max(1) as f32, lh.pdf) };
+            self.l += self.beta * lh.emitted * w;
         }
     }
 
