@@ -280,10 +280,8 @@ impl LightSampler {
                 & denom.is_finite()
                 & (t > rays.t_min[k])
                 & (t < t_max[k])
-                & (a >= 0.0)
-                & (a <= 1.0)
-                & (b >= 0.0)
-                & (b <= 1.0);
+                & (0.0..=1.0).contains(&a)
+                & (0.0..=1.0).contains(&b);
             back[k] = cos <= 0.0;
             out.t[k] = t;
             out.pdf[k] = dd * dd / (area * cos);
