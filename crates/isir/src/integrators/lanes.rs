@@ -67,12 +67,14 @@ impl Integrator {
 
 /// The path tracer's sixteen paths stepped side by side: each lane's vertex is
 /// [`Path::step`] (the lane's own sampler, the same operations as one path at a time),
-/// and every bounce's next hits come from one [`Scene::intersect_lanes`] over the paths
-/// still going (the others are zero rays, which meet nothing).
-/// PERF: measured 11-14% slower two sessions before this form was kept; re-measured
-/// once the planes' and spheres' lane loops were vectorised again (they had compiled
-/// scalar): path, Lambert, tp6-matte 16 spp 1.82 -> 1.75 s, tp4-bunny 2.96 -> 2.61 s,
-/// tp6-matte-quad 2.01 -> 2.00 s, the same images.
+/// run phase by phase over the lanes, and every bounce's next hits come from one
+/// [`Scene::intersect_lanes`] over the paths still going (the others are zero rays,
+/// which meet nothing).
+/// PERF: one path at a time, a vertex is one long chain of dependent operations (square
+/// roots, divisions, a sine and cosine); phase by phase the CPU overlaps the lanes'
+/// chains, and the arithmetic phases are SIMD loops over the lanes (`LightLanes`,
+/// `cosine_hemisphere_lanes`, `spawn_lanes`, `LightSampler::intersect_lanes`). Path,
+/// Lambert, tp6-matte 16 spp 1.67 -> 1.04 s over the tenth session (ARCHITECTURE.md).
 #[allow(clippy::too_many_arguments)]
 fn path_lanes(
     scene: &Scene,
@@ -103,8 +105,9 @@ fn path_lanes(
     loop {
         let mut next = RayLanes::EMPTY;
         let mut ended = 0u32;
-        // Each vertex in two passes over the lanes, light gathered then direction sampled
-        // (each lane's random numbers drawn in the same order).
+        // Each vertex as `Path::step`'s phases, each a pass over the lanes (each lane's
+        // random numbers drawn in the same order): the light met on the way, next-event
+        // estimation, the BSDF samples, the throughput and the next rays.
         let mut wo = [Vec3::ZERO; LANES];
         // `Path::arrive`: the quad lights met by all the lanes at once, light by light.
         if surface_lights {

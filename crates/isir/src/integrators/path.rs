@@ -287,8 +287,7 @@ impl Path {
     /// What the unoccluded sample `ls` (BRDF value `f`) of a quad light sampled `n` times
     /// brings, weighted against BSDF sampling, as [`next_event`] computes it.
     pub(super) fn quad_sample_value(scene: &Scene, hit: &Hit, wo: Vec3, ls: &LightSample, f: Color, n: u32) -> Color {
-        let w = power_heuristic(n as f32, ls.pdf, 1.0, scene.material(hit).pdf(hit, wo, ls.direction));
-        unoccluded(ls, f, hit, w)
+        unoccluded(ls, f, hit, quad_weight(n, ls, scene.material(hit), hit, wo))
     }
 
     /// Adds one light's part of [`next_event`]'s sum: `acc`, the sum of its `n` samples,
@@ -322,6 +321,13 @@ fn traced_f(material: &Material, hit: &Hit, wo: Vec3, ls: &LightSample) -> Optio
     Some(material.eval(hit, wo, ls.direction)).filter(|&f| f != Color::ZERO)
 }
 
+/// The MIS weight of the sample `ls` of a quad light sampled `n` times, against BSDF
+/// sampling (power heuristic).
+#[inline(always)]
+fn quad_weight(n: u32, ls: &LightSample, material: &Material, hit: &Hit, wo: Vec3) -> f32 {
+    power_heuristic(n as f32, ls.pdf, 1.0, material.pdf(hit, wo, ls.direction))
+}
+
 /// What an unoccluded light sample of BRDF value `f` brings, with MIS weight `w`.
 #[inline(always)]
 fn unoccluded(ls: &LightSample, f: Color, hit: &Hit, w: f32) -> Color {
@@ -349,7 +355,7 @@ fn next_event(
         let mut acc = Color::ZERO;
         // What an unoccluded sample of BRDF value `f` brings.
         let unoccluded = |ls: &LightSample, f: Color| {
-            let w = if light.is_surface() { power_heuristic(n as f32, ls.pdf, 1.0, material.pdf(hit, wo, ls.direction)) } else { 1.0 };
+            let w = if light.is_surface() { quad_weight(n, ls, material, hit, wo) } else { 1.0 };
             unoccluded(ls, f, hit, w)
         };
         let traced_f = |ls: &LightSample| traced_f(material, hit, wo, ls);
