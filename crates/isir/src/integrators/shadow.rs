@@ -164,14 +164,7 @@ impl QuadBatch {
 
     /// Sample `j` as [`LightSampler::sample`] returns it.
     pub(super) fn sample(&self, j: usize) -> LightSample {
-        let at = |a: &[[f32; BATCH]; 3]| Vec3::new(a[0][j], a[1][j], a[2][j]);
-        LightSample {
-            direction: at(&self.wi),
-            distance: self.distance[j],
-            point: at(&self.point),
-            radiance: at(&self.radiance),
-            pdf: self.pdf[j],
-        }
+        lane_sample(j, &self.wi, &self.distance, &self.point, &self.radiance, &self.pdf)
     }
 
     /// `material.shade(ray, hit, &self.sample(j))` for every sample `j` (`[axis][j]`), the
@@ -203,6 +196,21 @@ impl QuadBatch {
     fn shadow_ray(&self, j: usize) -> (Ray, f32) {
         (self.rays.ray(j), self.rays.t_max[j])
     }
+}
+
+/// Lane `j` of a batch's samples (directions, distances, points, radiances, pdfs in
+/// lanes) as a [`LightSample`].
+#[inline(always)]
+fn lane_sample(
+    j: usize,
+    wi: &[[f32; BATCH]; 3],
+    distance: &[f32; BATCH],
+    point: &[[f32; BATCH]; 3],
+    radiance: &[[f32; BATCH]; 3],
+    pdf: &[f32; BATCH],
+) -> LightSample {
+    let at = |a: &[[f32; BATCH]; 3]| Vec3::new(a[0][j], a[1][j], a[2][j]);
+    LightSample { direction: at(wi), distance: distance[j], point: at(point), radiance: at(radiance), pdf: pdf[j] }
 }
 
 /// The lanes among the first `count` whose flag in `live` is set, as a mask (a batch's
@@ -358,14 +366,7 @@ impl LightLanes {
 
     /// The sample of lane `j`, as [`LightSampler::sample`] returns it.
     pub(super) fn sample(&self, j: usize) -> LightSample {
-        let at = |a: &[[f32; BATCH]; 3]| Vec3::new(a[0][j], a[1][j], a[2][j]);
-        LightSample {
-            direction: at(&self.wi),
-            distance: self.distance[j],
-            point: at(&self.point),
-            radiance: at(&self.radiance),
-            pdf: self.pdf[j],
-        }
+        lane_sample(j, &self.wi, &self.distance, &self.point, &self.radiance, &self.pdf)
     }
 
     /// The shadow ray of lane `j` with its interval, as [`ShadowRays::to`] gives it.

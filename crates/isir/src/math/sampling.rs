@@ -65,7 +65,7 @@ pub fn square_to_cosine_hemisphere_pdf(n: glam::Vec3, w: glam::Vec3) -> f32 {
 }
 
 /// [`square_to_cosine_hemisphere`] and [`square_to_cosine_hemisphere_pdf`] for
-/// [`LANES`](crate::math::ray::LANES) normals side by side (`n[axis][k]`, uniform numbers
+/// [`LANES`] normals side by side (`n[axis][k]`, uniform numbers
 /// `xi[k]`): the directions (`wi[axis][k]`) and their pdfs, bit for bit the scalar
 /// functions' (the same operations in the same order; the sines and cosines are the
 /// library's, lane by lane). The other loops run eight lanes wide where the CPU has AVX2.
