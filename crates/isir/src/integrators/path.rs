@@ -280,6 +280,7 @@ impl Path {
     /// The BRDF value at `hit` of the light sample `ls` when it is worth a shadow ray, as
     /// [`next_event`] decides it (for the lanes, which set up the samples of many paths
     /// together).
+    #[inline(always)]
     pub(super) fn light_sample_f(scene: &Scene, hit: &Hit, wo: Vec3, ls: &LightSample) -> Option<Color> {
         traced_f(scene.material(hit), hit, wo, ls)
     }

@@ -247,6 +247,7 @@ impl Material {
 
     /// The BRDF `f(wo, wi)` (see the module's contract).
     #[must_use]
+    #[inline]
     pub fn eval(&self, hit: &Hit, wo: Vec3, wi: Vec3) -> Color {
         let n = hit.normal;
         if n.dot(wo) <= 0.0 || n.dot(wi) <= 0.0 {
