@@ -118,9 +118,7 @@ pub(super) fn quad_light(
         let blocked = scene.occluded_lanes(&batch.rays, live);
         // `material.shade(ray, hit, &batch.sample(j))` of every sample, computed together.
         let f = batch.shade(material, ray, hit);
-        for j in (0..count).filter(|&j| live & !blocked & (1 << j) != 0) {
-            sum += Color::new(f[0][j], f[1][j], f[2][j]) * batch.radiance(j) * batch.cos[j];
-        }
+        batch.add_seen(&f, live & !blocked, count, &mut sum);
     }
     sum / n as f32
 }

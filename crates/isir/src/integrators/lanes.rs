@@ -329,12 +329,8 @@ fn quad_pairs(
         }
         let blocked = if live == 0 { 0 } else { scene.occluded_lanes(&both, live) };
         for i in (0..2).filter(|&i| filled[i]) {
-            let (batch, f) = (&batches[i], &f[i]);
-            let seen = (live & !blocked) >> (i * HALF);
             let mut sum = Color::ZERO;
-            for j in (0..m).filter(|&j| seen & (1 << j) != 0) {
-                sum += Color::new(f[0][j], f[1][j], f[2][j]) * batch.radiance(j) * batch.cos[j];
-            }
+            batches[i].add_seen(&f[i], (live & !blocked) >> (i * HALF), m, &mut sum);
             li[first + i] += sum / m as f32;
         }
     }

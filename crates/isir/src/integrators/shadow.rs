@@ -186,6 +186,16 @@ impl QuadBatch {
         out
     }
 
+    /// Adds to `sum`, in sample order, `shade · radiance · cos` of the samples among the
+    /// first `count` whose bits are set in `seen` (those whose shadow ray reached the
+    /// light), `f` being [`QuadBatch::shade`]'s values.
+    #[inline(always)]
+    pub(super) fn add_seen(&self, f: &[[f32; BATCH]; 3], seen: u32, count: usize, sum: &mut Color) {
+        for j in (0..count).filter(|&j| seen & (1 << j) != 0) {
+            *sum += Color::new(f[0][j], f[1][j], f[2][j]) * self.radiance(j) * self.cos[j];
+        }
+    }
+
     /// The radiance of sample `j`.
     pub(super) fn radiance(&self, j: usize) -> Color {
         Vec3::new(self.radiance[0][j], self.radiance[1][j], self.radiance[2][j])
