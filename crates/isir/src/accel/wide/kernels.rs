@@ -250,7 +250,7 @@ pub(super) fn tri4_sse<const ANY: bool>(tri: &Tri4, pre: &RayPre, t_min: f32, t_
         m = _mm_and_ps(m, _mm_cmple_ps(add(u, v), one));
         m = _mm_and_ps(m, _mm_cmpge_ps(t, _mm_set1_ps(t_min)));
         m = _mm_and_ps(m, _mm_cmplt_ps(t, _mm_set1_ps(t_max)));
-        let mut mask = _mm_movemask_ps(m) as u32;
+        let mask = _mm_movemask_ps(m) as u32;
         if mask == 0 {
             return None;
         }
@@ -258,20 +258,88 @@ pub(super) fn tri4_sse<const ANY: bool>(tri: &Tri4, pre: &RayPre, t_min: f32, t_
         _mm_storeu_ps(ts.as_mut_ptr(), t);
         _mm_storeu_ps(us.as_mut_ptr(), u);
         _mm_storeu_ps(vs.as_mut_ptr(), v);
-        let mut lane = mask.trailing_zeros() as usize;
-        if ANY {
-            // Any hit will do: the first lane, without picking the closest.
-            return Some(MeshHit { t: ts[lane], prim: tri.prim[lane], u: us[lane], v: vs[lane] });
-        }
-        mask &= mask - 1;
-        while mask != 0 {
-            let l = mask.trailing_zeros() as usize;
-            mask &= mask - 1;
-            if ts[l] < ts[lane] {
-                lane = l;
-            }
-        }
+        // With ANY, any hit will do: the first lane, without picking the closest.
+        let lane = pick_lane::<ANY>(mask, &ts);
         Some(MeshHit { t: ts[lane], prim: tri.prim[lane], u: us[lane], v: vs[lane] })
+    }
+}
+
+/// The lane [`tri4_sse`] reports among the hit lanes `mask` (not zero) of a block: with
+/// `ANY` the first, otherwise the nearest, the lower lane on a tie.
+#[inline(always)]
+pub(super) fn pick_lane<const ANY: bool>(mut mask: u32, ts: &[f32]) -> usize {
+    debug_assert!(mask != 0);
+    let mut lane = mask.trailing_zeros() as usize;
+    if ANY {
+        return lane;
+    }
+    mask &= mask - 1;
+    while mask != 0 {
+        let l = mask.trailing_zeros() as usize;
+        mask &= mask - 1;
+        if ts[l] < ts[lane] {
+            lane = l;
+        }
+    }
+    lane
+}
+
+/// [`tri4_sse`] for two rays at once, ray `a` in the low 128-bit half of AVX registers and
+/// `b` in the high one: every lane computes what `tri4_sse` computes for its ray,
+/// operation for operation. Returns the hit lanes (bits 0-3 for `a`, 4-7 for `b`) and
+/// the lanes' `t`, `u` and `v` (`[a's four, b's four]`).
+///
+/// # Safety
+/// The CPU must have AVX.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+pub(super) unsafe fn tri4x2_avx2(
+    tri: &Tri4,
+    a: &RayPre,
+    b: &RayPre,
+    t_min: [f32; 2],
+    t_max: [f32; 2],
+) -> (u32, [std::arch::x86_64::__m256; 3]) {
+    use std::arch::x86_64::*;
+    // SAFETY: the caller guarantees AVX; `Tri4`'s rows are 16 bytes, read with unaligned
+    // broadcasts.
+    unsafe {
+        let ld = |r: &[f32; 4]| _mm256_broadcast_ps(&*r.as_ptr().cast::<__m128>());
+        let two = |x: f32, y: f32| _mm256_setr_m128(_mm_set1_ps(x), _mm_set1_ps(y));
+        let (dx, dy, dz) = (two(a.dir.x, b.dir.x), two(a.dir.y, b.dir.y), two(a.dir.z, b.dir.z));
+        let (e1x, e1y, e1z) = (ld(&tri.e1[0]), ld(&tri.e1[1]), ld(&tri.e1[2]));
+        let (e2x, e2y, e2z) = (ld(&tri.e2[0]), ld(&tri.e2[1]), ld(&tri.e2[2]));
+        let mul = |x, y| _mm256_mul_ps(x, y);
+        let sub = |x, y| _mm256_sub_ps(x, y);
+        let add = |x, y| _mm256_add_ps(x, y);
+        // p = d × e2
+        let px = sub(mul(dy, e2z), mul(dz, e2y));
+        let py = sub(mul(dz, e2x), mul(dx, e2z));
+        let pz = sub(mul(dx, e2y), mul(dy, e2x));
+        let det = add(add(mul(e1x, px), mul(e1y, py)), mul(e1z, pz));
+        let inv = _mm256_div_ps(_mm256_set1_ps(1.0), det);
+        // s = o - v0
+        let sx = sub(two(a.origin.x, b.origin.x), ld(&tri.v0[0]));
+        let sy = sub(two(a.origin.y, b.origin.y), ld(&tri.v0[1]));
+        let sz = sub(two(a.origin.z, b.origin.z), ld(&tri.v0[2]));
+        let u = mul(add(add(mul(sx, px), mul(sy, py)), mul(sz, pz)), inv);
+        // q = s × e1
+        let qx = sub(mul(sy, e1z), mul(sz, e1y));
+        let qy = sub(mul(sz, e1x), mul(sx, e1z));
+        let qz = sub(mul(sx, e1y), mul(sy, e1x));
+        let v = mul(add(add(mul(dx, qx), mul(dy, qy)), mul(dz, qz)), inv);
+        let t = mul(add(add(mul(e2x, qx), mul(e2y, qy)), mul(e2z, qz)), inv);
+        let zero = _mm256_setzero_ps();
+        let one = _mm256_set1_ps(1.0);
+        // The predicates of SSE's `cmpneq`, `cmpge`, `cmple` and `cmplt`.
+        let mut m = _mm256_cmp_ps::<_CMP_NEQ_UQ>(det, zero);
+        m = _mm256_and_ps(m, _mm256_cmp_ps::<_CMP_GE_OS>(u, zero));
+        m = _mm256_and_ps(m, _mm256_cmp_ps::<_CMP_LE_OS>(u, one));
+        m = _mm256_and_ps(m, _mm256_cmp_ps::<_CMP_GE_OS>(v, zero));
+        m = _mm256_and_ps(m, _mm256_cmp_ps::<_CMP_LE_OS>(add(u, v), one));
+        m = _mm256_and_ps(m, _mm256_cmp_ps::<_CMP_GE_OS>(t, two(t_min[0], t_min[1])));
+        m = _mm256_and_ps(m, _mm256_cmp_ps::<_CMP_LT_OS>(t, two(t_max[0], t_max[1])));
+        (_mm256_movemask_ps(m) as u32, [t, u, v])
     }
 }
 

@@ -184,15 +184,53 @@ impl WideBvh {
                     while m != 0 {
                         let i = m.trailing_zeros() as usize;
                         m &= m - 1;
-                        if let Some(h) = tri4_sse::<ANY>(tri, pre(i), t_min[i], t_best[i]) {
-                            if !ANY {
-                                t_best[i] = h.t;
-                                out[i] = Some(h);
+                        if m == 0 {
+                            // The last ray alone.
+                            if let Some(h) = tri4_sse::<ANY>(tri, pre(i), t_min[i], t_best[i]) {
+                                if !ANY {
+                                    t_best[i] = h.t;
+                                    out[i] = Some(h);
+                                }
+                                if ANY {
+                                    hit_rays |= 1 << i;
+                                    live &= !(1 << i);
+                                    cur_mask &= !(1 << i);
+                                }
                             }
-                            if ANY {
-                                hit_rays |= 1 << i;
-                                live &= !(1 << i);
-                                cur_mask &= !(1 << i);
+                            break;
+                        }
+                        // Two rays at once, one per half of the AVX registers.
+                        let j = m.trailing_zeros() as usize;
+                        m &= m - 1;
+                        // SAFETY: the CPU has AVX2 (this function's features).
+                        let (hits, tuv) = unsafe { tri4x2_avx2(tri, pre(i), pre(j), [t_min[i], t_min[j]], [t_best[i], t_best[j]]) };
+                        if hits == 0 {
+                            continue;
+                        }
+                        if ANY {
+                            let both = u32::from(hits & 0xf != 0) << i | u32::from(hits >> 4 != 0) << j;
+                            hit_rays |= both;
+                            live &= !both;
+                            cur_mask &= !both;
+                            continue;
+                        }
+                        let mut lanes = [[0f32; 8]; 3];
+                        for (l, x) in lanes.iter_mut().zip(tuv) {
+                            // SAFETY: eight floats.
+                            unsafe { _mm256_storeu_ps(l.as_mut_ptr(), x) };
+                        }
+                        for (ray, half) in [(i, 0), (j, 4)] {
+                            let hits = hits >> half & 0xf;
+                            if hits != 0 {
+                                let lane = pick_lane::<ANY>(hits, &lanes[0][half..half + 4]);
+                                let h = MeshHit {
+                                    t: lanes[0][half + lane],
+                                    prim: tri.prim[lane],
+                                    u: lanes[1][half + lane],
+                                    v: lanes[2][half + lane],
+                                };
+                                t_best[ray] = h.t;
+                                out[ray] = Some(h);
                             }
                         }
                     }
