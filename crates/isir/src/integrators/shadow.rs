@@ -321,6 +321,7 @@ impl LightLanes {
             }
             LightSampler::Quad { corner, u, v, normal, area, emitted, .. } => {
                 let (c, uu, vv, n, em) = (corner.to_array(), u.to_array(), v.to_array(), normal.to_array(), emitted.to_array());
+                let (mut cl_of, mut pdf_of) = ([0f32; BATCH], [0f32; BATCH]);
                 for j in 0..BATCH {
                     // PERF: no `array::map` in these loops: left out of line, it kept
                     // them from vectorising (this function went 5% -> 23% of a render).
@@ -333,17 +334,26 @@ impl LightLanes {
                     let d = (t[0] * t[0] + t[1] * t[1] + t[2] * t[2]).sqrt();
                     let wi = [t[0] / d, t[1] / d, t[2] / d];
                     let cl = n[0] * wi[0] + n[1] * wi[1] + n[2] * wi[2];
-                    // The back of the light (or NaN): nothing.
-                    let lit = cl > 0.0;
-                    let pdf = d * d / (area * cl);
                     for k in 0..3 {
                         to[k][j] = t[k];
                         b.point[k][j] = y[k];
                         b.wi[k][j] = wi[k];
-                        b.radiance[k][j] = if lit { em[k] / pdf } else { 0.0 };
                     }
                     b.distance[j] = d;
-                    b.pdf[j] = if lit { pdf } else { 0.0 };
+                    cl_of[j] = cl;
+                    pdf_of[j] = d * d / (area * cl);
+                }
+                // PERF: what depends on the light's side in a loop of its own: in the loop
+                // above, LLVM split the lanes by it and made every store an AVX masked
+                // store once the crate was one codegen unit (this function 6.6% -> 13.9%
+                // of tp6-matte-quad's path tracer; apart, 7.5%).
+                for j in 0..BATCH {
+                    // The back of the light (or NaN): nothing.
+                    let lit = cl_of[j] > 0.0;
+                    for k in 0..3 {
+                        b.radiance[k][j] = if lit { em[k] / pdf_of[j] } else { 0.0 };
+                    }
+                    b.pdf[j] = if lit { pdf_of[j] } else { 0.0 };
                 }
             }
         }
