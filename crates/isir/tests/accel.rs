@@ -248,16 +248,86 @@ fn packets_return_the_same_hits_as_single_rays() {
         trace_mesh_packets(&m, &rays, &mut packed);
         let mut ties = 0;
         for (i, (s, p)) in single.iter().zip(&packed).enumerate() {
-            assert_eq!(s.t.to_bits(), p.t.to_bits(), "{level:?} ray {i}: {s:?} vs {p:?}");
-            if s.prim != p.prim {
+            if level == SimdLevel::Avx512 && s.prim != p.prim {
+                // AVX-512 packets report either of two triangles at exactly one distance.
+                assert_eq!(s.t.to_bits(), p.t.to_bits(), "{level:?} ray {i}: {s:?} vs {p:?}");
                 ties += 1;
-            } else {
-                assert_eq!((s.u, s.v), (p.u, p.v), "{level:?} ray {i}");
+                continue;
             }
+            assert_eq!(s, p, "{level:?} ray {i}");
         }
         assert!(ties * 1000 < rays.len(), "{level:?}: {ties} ties");
         assert!(!packed[5].is_hit() && !packed[21].is_hit());
         assert!(packed.iter().filter(|h| h.is_hit()).count() > rays.len() / 2);
+    }
+}
+
+/// Two triangles at exactly the same distance: a single ray reports the one it visits
+/// first, and packets and streams, which visit in another order, must report the same one.
+/// The plane z = 0 is tiled twice by right triangles with legs of 4 (the second tiling
+/// shifted by 2): rays of dyadic origins and directions meet both tilings at exactly the
+/// same `t` (every product exact, the determinant a power of two). Small triangles
+/// scattered above the plane give the leaves' boxes different tops, so that rays next
+/// to each other order the leaves differently.
+#[test]
+fn packets_resolve_ties_between_coincident_triangles_as_single_rays() {
+    use isir::rays::{trace_mesh, trace_mesh_packets, HitRecord, RayRecord};
+    let (mut vertices, mut triangles) = (Vec::new(), Vec::new());
+    let add = |vertices: &mut Vec<Vec3>, triangles: &mut Vec<[u32; 3]>, a: Vec3, b: Vec3, c: Vec3| {
+        let n = vertices.len() as u32;
+        vertices.extend([a, b, c]);
+        triangles.push([n, n + 1, n + 2]);
+    };
+    for shift in [0.0, 2.0] {
+        for i in 0..16 {
+            for j in 0..16 {
+                let (x, y) = (i as f32 * 4.0 + shift, j as f32 * 4.0 + shift);
+                add(&mut vertices, &mut triangles, Vec3::new(x, y, 0.0), Vec3::new(x + 4.0, y, 0.0), Vec3::new(x, y + 4.0, 0.0));
+                add(
+                    &mut vertices,
+                    &mut triangles,
+                    Vec3::new(x + 4.0, y + 4.0, 0.0),
+                    Vec3::new(x, y + 4.0, 0.0),
+                    Vec3::new(x + 4.0, y, 0.0),
+                );
+            }
+        }
+    }
+    let tiles = triangles.len();
+    let mut rng = Sampler::from_seed(3);
+    for _ in 0..200 {
+        let p = Vec3::new(rng.next_f32() * 66.0, rng.next_f32() * 66.0, 0.5 + rng.next_f32() * 6.0);
+        add(&mut vertices, &mut triangles, p, p + Vec3::new(0.3, 0.0, 0.1), p + Vec3::new(0.0, 0.3, 0.2));
+    }
+    let mut mesh = TriangleMesh::new(vertices, Vec::new(), triangles);
+    mesh.build_accel(Accel::BvhSah);
+    // Packets of sixteen neighbours (4 × 4 origins a quarter apart), each ray leaning its
+    // own way by sixteenths.
+    let mut rays = Vec::new();
+    for py in 0..24 {
+        for px in 0..24 {
+            for k in 0..16 {
+                let origin = Vec3::new(4.0 + px as f32 * 2.5 + (k % 4) as f32 * 0.25, 4.0 + py as f32 * 2.5 + (k / 4) as f32 * 0.25, 16.0);
+                let direction = Vec3::new(((k * 5) % 7) as f32 / 16.0 - 0.1875, ((k * 3) % 5) as f32 / 16.0 - 0.125, -1.0);
+                rays.push(RayRecord { origin, t_min: 0.0, direction, t_max: f32::INFINITY });
+            }
+        }
+    }
+    let mut single = vec![HitRecord::MISS; rays.len()];
+    let mut packed = single.clone();
+    // AVX-512 packets are left out: they report either of two triangles at one distance
+    // (the renderer does not use them for closest hits).
+    for level in SimdLevel::available().into_iter().filter(|&l| l != SimdLevel::Avx512) {
+        assert!(mesh.set_simd_level(level));
+        trace_mesh(&mesh, &rays, false, &mut single);
+        trace_mesh_packets(&mesh, &rays, &mut packed);
+        let ties = single.iter().filter(|h| h.t == 16.0 && (h.prim as usize) < tiles).count();
+        let first = single.iter().filter(|h| h.t == 16.0 && (h.prim as usize) < tiles / 2).count();
+        // Most rays meet the plane, and single rays report triangles of both tilings.
+        assert!(ties > rays.len() / 2 && first > 0 && first < ties, "{level:?}: {first} of {ties} plane hits on the first tiling");
+        for (i, (s, p)) in single.iter().zip(&packed).enumerate() {
+            assert_eq!(s, p, "{level:?} ray {i}: {:?}", rays[i]);
+        }
     }
 }
 

@@ -10,7 +10,7 @@
 //! return the same hits as single rays.
 
 #[cfg(target_arch = "x86_64")]
-use crate::accel::wide::stream::MaskedLanes;
+use crate::accel::wide::stream::{LanesUpTo, MaskedLanes};
 use crate::accel::wide::{SimdLevel, WideBvh};
 use crate::accel::MeshHit;
 use crate::math::ray::{lanes_of, RayLanes, RaySegment, LANES};
@@ -26,7 +26,10 @@ pub const PACKET: usize = 16;
 const AVX512_FROM: usize = 12;
 
 impl WideBvh {
-    /// Closest hits of up to [`PACKET`] rays (`out[i]` for `rays[i]`).
+    /// Closest hits of up to [`PACKET`] rays (`out[i]` for `rays[i]`): those of
+    /// [`WideBvh::intersect`], except that where two triangles meet a ray at exactly the
+    /// same distance an AVX-512 packet may report the other one (AVX2 streams and single
+    /// rays report the same one).
     ///
     /// # Panics
     /// If `rays` holds more than [`PACKET`] rays or `out` is shorter than `rays`.
@@ -101,6 +104,24 @@ impl WideBvh {
             return unsafe { self.stream_avx2::<true, _>(rays, &mut []) };
         }
         rays.iter().enumerate().fold(0, |m, (i, r)| m | u32::from(single(r)) << i)
+    }
+
+    /// [`WideBvh::intersect`] for the lanes `mask` of `rays`, each up to its own `t_max[k]`
+    /// instead of the lanes' (the closest hit so far in a scene of several objects):
+    /// `out[k]` for lane `k`, `None` outside `mask`. The same answers as one `intersect`
+    /// per lane; an AVX2 stream reads the rays from their lanes.
+    pub fn intersect_lanes(&self, rays: &RayLanes, t_max: &[f32; LANES], mask: u32, out: &mut [Option<MeshHit>; LANES]) {
+        let mask = mask & (u32::MAX >> (32 - LANES));
+        #[cfg(target_arch = "x86_64")]
+        if self.level() == SimdLevel::Avx2 && !self.watertight && mask.count_ones() > 1 {
+            out.fill(None);
+            // SAFETY: the level is only ever Avx2 when the CPU reported AVX2; not watertight.
+            unsafe { self.stream_avx2::<false, _>(&LanesUpTo(rays, t_max, mask), out) };
+            return;
+        }
+        for (k, o) in out.iter_mut().enumerate() {
+            *o = if mask & (1 << k) != 0 { self.intersect(&rays.ray(k), rays.t_min[k], t_max[k]) } else { None };
+        }
     }
 
     /// [`WideBvh::occluded_packet`] for the lanes `mask` of `rays`: bit `k` set when lane

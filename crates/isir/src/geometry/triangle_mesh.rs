@@ -464,16 +464,6 @@ impl TriangleMesh {
         }
     }
 
-    /// [`TriangleMesh::intersect`] for a ray that [`TriangleMesh::may_hit_lanes`] let
-    /// through: the same hit, without testing the box again.
-    #[inline]
-    pub(crate) fn intersect_near(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<MeshHit> {
-        match &self.accel {
-            MeshAccel::Wide(w) => w.intersect(ray, t_min, t_max),
-            _ => self.intersect(ray, t_min, t_max),
-        }
-    }
-
     /// [`TriangleMesh::intersect`], and what finding the hit cost: nodes visited (binary
     /// nodes for `bvh-mid`, 8-wide nodes for `bvh-sah`, the mesh's box for `aabb`) and
     /// triangle tests (all of them for `none` and, when the box is hit, `aabb`; four per
@@ -588,6 +578,21 @@ impl TriangleMesh {
         match &self.accel {
             MeshAccel::Wide(w) => w.occluded_packet(rays),
             _ => rays.iter().enumerate().fold(0, |m, (i, r)| m | u32::from(self.occluded(&r.ray(), r.t_min, r.t_max)) << i),
+        }
+    }
+
+    /// [`TriangleMesh::intersect`] for the lanes `mask` of `rays` (whose rays may meet the
+    /// mesh's box), each up to its own `t_max[k]`: `out[k]` for lane `k`, `None` outside
+    /// `mask`. Traced together through the wide BVH ([`WideBvh::intersect_lanes`]), one at
+    /// a time otherwise.
+    pub(crate) fn intersect_lanes_near(&self, rays: &RayLanes, t_max: &[f32; LANES], mask: u32, out: &mut [Option<MeshHit>; LANES]) {
+        match &self.accel {
+            MeshAccel::Wide(w) => w.intersect_lanes(rays, t_max, mask, out),
+            _ => {
+                for (k, o) in out.iter_mut().enumerate() {
+                    *o = if mask & (1 << k) != 0 { self.intersect(&rays.ray(k), rays.t_min[k], t_max[k]) } else { None };
+                }
+            }
         }
     }
 

@@ -88,9 +88,16 @@ impl Scene {
                 Geometry::Mesh(m) => {
                     // The mesh's box against all the lanes at once, then the lanes that may
                     // meet it one by one.
-                    let near = m.may_hit_lanes(rays);
-                    for k in (0..count).filter(|&k| valid[k] && near & (1 << k) != 0) {
-                        if let Some(h) = m.intersect_near(&rays.ray(k), rays.t_min[k], t_best[k]) {
+                    let mut near = m.may_hit_lanes(rays);
+                    for (k, &v) in valid.iter().enumerate() {
+                        if !v {
+                            near &= !(1 << k);
+                        }
+                    }
+                    let mut found = [None; LANES];
+                    m.intersect_lanes_near(rays, &t_best, near, &mut found);
+                    for k in lanes_of(near) {
+                        if let Some(h) = found[k] {
                             t_best[k] = h.t;
                             (hits.object[k], hits.prim[k], hits.u[k], hits.v[k]) = (i as u32, h.prim, h.u, h.v);
                         }

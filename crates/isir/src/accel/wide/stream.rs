@@ -6,9 +6,12 @@
 //! stack entry says which rays entered that subtree.
 //!
 //! The box and triangle tests are the single-ray kernels, so a stream's any-hit answers
-//! are exactly those of [`WideBvh::occluded`]; its closest hits are those of
-//! [`WideBvh::intersect`] except, on an exact tie of two triangles' distances, which of
-//! them is reported (the visiting order differs).
+//! are exactly those of [`WideBvh::occluded`], and its closest hits those of
+//! [`WideBvh::intersect`]. Where two triangles meet a ray at exactly the same distance
+//! (coincident triangles, an edge), the single ray reports the one it visits first, and
+//! a stream visits in another order: the stream notices every such tie (its triangle
+//! tests accept `t` up to and including the best so far) and traces those rays again
+//! alone, so that they get the single ray's answer.
 
 // The streams are AVX2 code: elsewhere only their ray sources are compiled.
 #![cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
@@ -46,6 +49,22 @@ impl StreamRays for [RaySegment] {
 /// The lanes of a [`RayLanes`] whose bits are set in the mask.
 pub(crate) struct MaskedLanes<'a>(pub(crate) &'a RayLanes, pub(crate) u32);
 
+/// The lanes of a [`RayLanes`] whose bits are set in the mask, each up to its own `t_max`
+/// (the closest hit so far in a scene of several objects) instead of the lanes' own.
+pub(crate) struct LanesUpTo<'a>(pub(crate) &'a RayLanes, pub(crate) &'a [f32; crate::math::ray::LANES], pub(crate) u32);
+
+impl StreamRays for LanesUpTo<'_> {
+    #[inline(always)]
+    fn count(&self) -> usize {
+        (32 - self.2.leading_zeros() as usize).min(crate::math::ray::LANES)
+    }
+
+    #[inline(always)]
+    fn get(&self, i: usize) -> Option<(Ray, f32, f32)> {
+        (self.2 & (1 << i) != 0).then(|| (self.0.ray(i), self.0.t_min[i], self.1[i]))
+    }
+}
+
 impl StreamRays for MaskedLanes<'_> {
     #[inline(always)]
     fn count(&self) -> usize {
@@ -78,6 +97,13 @@ impl WideBvh {
         let mut live: u32 = 0;
         // The rays that hit, for `ANY`.
         let mut hit_rays: u32 = 0;
+        // Closest hits: the rays that met two triangles at one distance, traced again alone.
+        let mut tied: u32 = 0;
+        // What a triangle test accepts: `t < t_lim`, `t_best` itself with `ANY`, otherwise
+        // the next float up (`t <= t_best`), so that ties are seen. PERF: kept beside
+        // `t_best`, not computed per test (the stream 5% slower).
+        let mut t_lim = [0f32; STREAM];
+        let limit = |t: f32| if ANY { t } else { t.next_up() };
         for i in 0..rays.count() {
             if !ANY {
                 out[i] = None;
@@ -87,7 +113,7 @@ impl WideBvh {
                 continue;
             }
             pre[i].write(RayPre::new(&ray));
-            (t_min[i], t_best[i]) = (r_min, r_max);
+            (t_min[i], t_best[i], t_lim[i]) = (r_min, r_max, limit(r_max));
             live |= 1 << i;
         }
         if live == 0 {
@@ -186,10 +212,15 @@ impl WideBvh {
                         m &= m - 1;
                         if m == 0 {
                             // The last ray alone.
-                            if let Some(h) = tri4_sse::<ANY>(tri, pre(i), t_min[i], t_best[i]) {
+                            if let Some(h) = tri4_sse::<ANY>(tri, pre(i), t_min[i], t_lim[i]) {
                                 if !ANY {
-                                    t_best[i] = h.t;
-                                    out[i] = Some(h);
+                                    if h.t < t_best[i] {
+                                        t_best[i] = h.t;
+                                        t_lim[i] = limit(h.t);
+                                        out[i] = Some(h);
+                                    } else if out[i].is_some() {
+                                        tied |= 1 << i;
+                                    }
                                 }
                                 if ANY {
                                     hit_rays |= 1 << i;
@@ -203,7 +234,7 @@ impl WideBvh {
                         let j = m.trailing_zeros() as usize;
                         m &= m - 1;
                         // SAFETY: the CPU has AVX2 (this function's features).
-                        let (hits, tuv) = unsafe { tri4x2_avx2(tri, pre(i), pre(j), [t_min[i], t_min[j]], [t_best[i], t_best[j]]) };
+                        let (hits, tuv) = unsafe { tri4x2_avx2(tri, pre(i), pre(j), [t_min[i], t_min[j]], [t_lim[i], t_lim[j]]) };
                         if hits == 0 {
                             continue;
                         }
@@ -229,8 +260,13 @@ impl WideBvh {
                                     u: lanes[1][half + lane],
                                     v: lanes[2][half + lane],
                                 };
-                                t_best[ray] = h.t;
-                                out[ray] = Some(h);
+                                if h.t < t_best[ray] {
+                                    t_best[ray] = h.t;
+                                    t_lim[ray] = limit(h.t);
+                                    out[ray] = Some(h);
+                                } else if out[ray].is_some() {
+                                    tied |= 1 << ray;
+                                }
                             }
                         }
                     }
@@ -258,6 +294,34 @@ impl WideBvh {
                 }
             }
         }
+        if !ANY && tied != 0 {
+            // SAFETY: this function's own requirements.
+            unsafe { self.retrace(rays, tied, out) };
+        }
         hit_rays
+    }
+
+    /// The rays `tied` of a stream (valid rays) traced again alone: where two triangles
+    /// meet a ray at one distance, the single ray's answer depends on its own visiting
+    /// order. Rare, and out of line. PERF: the AVX2 traversal called directly; through
+    /// [`WideBvh::intersect`] (one more caller) LLVM inlined differently elsewhere, and
+    /// the path tracer, which never gets here, was 8% slower.
+    ///
+    /// # Safety
+    /// As for [`WideBvh::stream_avx2`].
+    #[cfg(target_arch = "x86_64")]
+    #[cold]
+    #[inline(never)]
+    unsafe fn retrace<R: StreamRays + ?Sized>(&self, rays: &R, tied: u32, out: &mut [Option<MeshHit>]) {
+        let mut m = tied;
+        while m != 0 {
+            let i = m.trailing_zeros() as usize;
+            m &= m - 1;
+            if let Some((ray, r_min, r_max)) = rays.get(i) {
+                // SAFETY: the caller guarantees AVX2; the stream traced only valid rays of
+                // a non-empty tree, as `dispatch` requires.
+                out[i] = unsafe { self.traverse_avx2::<false, false>(&ray, r_min, r_max, &mut TraversalStats::default()) };
+            }
+        }
     }
 }
