@@ -162,20 +162,79 @@ pub(super) unsafe fn box_lanes_avx2(
     t_max: f32,
 ) -> (std::arch::x86_64::__m256, std::arch::x86_64::__m256) {
     use std::arch::x86_64::*;
+    let base = std::ptr::from_ref(node).cast::<u8>();
     // SAFETY: the caller guarantees AVX2 and FMA. `near_far` holds offsets of planes
     // (`[f32; 8]` at multiples of 32 bytes) inside the 32-byte aligned `Node8`, so the
     // aligned loads read within the node.
+    let plane = |o: usize| unsafe {
+        debug_assert!(o.is_multiple_of(32) && o + 32 <= std::mem::offset_of!(Node8, child));
+        _mm256_load_ps(base.add(o).cast())
+    };
+    // SAFETY: as above. PERF: each plane loaded where it is used (the single-ray
+    // traversal was 4% slower with the six loads first).
+    unsafe { box_slabs_avx2(|axis, far| plane(if far { pre.near_far[axis].1 } else { pre.near_far[axis].0 }), pre, t_min, t_max) }
+}
+
+/// A node's near and far planes for the octant of `pre`: `[near x, far x, near y, ...]`.
+///
+/// # Safety
+/// As for [`box_test_avx2`].
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+pub(super) unsafe fn node_planes_avx2(node: &Node8, pre: &RayPre) -> [std::arch::x86_64::__m256; 6] {
+    use std::arch::x86_64::*;
+    let base = std::ptr::from_ref(node).cast::<u8>();
+    // SAFETY: as in `box_lanes_avx2`.
+    let plane = |o: usize| unsafe { _mm256_load_ps(base.add(o).cast()) };
+    let [(nx, fx), (ny, fy), (nz, fz)] = pre.near_far;
+    [plane(nx), plane(fx), plane(ny), plane(fy), plane(nz), plane(fz)]
+}
+
+/// Whether two rays read the same planes of every node (the same octant).
+pub(super) fn same_octant(a: &RayPre, b: &RayPre) -> bool {
+    a.neg == b.neg
+}
+
+/// [`box_lanes_avx2`] on planes already loaded by [`node_planes_avx2`] for a ray of
+/// `pre`'s octant.
+///
+/// # Safety
+/// The CPU must have AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+pub(super) unsafe fn box_planes_avx2(
+    planes: &[std::arch::x86_64::__m256; 6],
+    pre: &RayPre,
+    t_min: f32,
+    t_max: f32,
+) -> (std::arch::x86_64::__m256, std::arch::x86_64::__m256) {
+    // SAFETY: the caller guarantees AVX2 and FMA.
+    unsafe { box_slabs_avx2(|axis, far| planes[2 * axis + usize::from(far)], pre, t_min, t_max) }
+}
+
+/// The slab test of [`box_lanes_avx2`], `plane(axis, far)` giving the near or far plane
+/// of an axis.
+///
+/// # Safety
+/// The CPU must have AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn box_slabs_avx2(
+    plane: impl Fn(usize, bool) -> std::arch::x86_64::__m256,
+    pre: &RayPre,
+    t_min: f32,
+    t_max: f32,
+) -> (std::arch::x86_64::__m256, std::arch::x86_64::__m256) {
+    use std::arch::x86_64::*;
+    // SAFETY: the caller guarantees AVX2 and FMA.
     unsafe {
-        let base = std::ptr::from_ref(node).cast::<u8>();
         let mut near = _mm256_set1_ps(t_min);
         let mut far = _mm256_set1_ps(t_max);
         for axis in 0..3 {
-            let (n, f) = pre.near_far[axis];
-            debug_assert!([n, f].iter().all(|&o| o % 32 == 0 && o + 32 <= std::mem::offset_of!(Node8, child)));
             let inv = _mm256_set1_ps(pre.inv[axis]);
             let (oin, oif) = (_mm256_set1_ps(pre.org_inv_near[axis]), _mm256_set1_ps(pre.org_inv_far[axis]));
-            let tn = _mm256_fmsub_ps(_mm256_load_ps(base.add(n).cast()), inv, oin);
-            let tf = _mm256_fmsub_ps(_mm256_load_ps(base.add(f).cast()), inv, oif);
+            let tn = _mm256_fmsub_ps(plane(axis, false), inv, oin);
+            let tf = _mm256_fmsub_ps(plane(axis, true), inv, oif);
             near = _mm256_max_ps(near, tn);
             far = _mm256_min_ps(far, tf);
         }

@@ -19,7 +19,7 @@
 use super::kernels::*;
 use super::traverse::{nearer_count, sort_keys};
 use super::*;
-use crate::math::ray::{RayLanes, RaySegment};
+use crate::math::ray::{lanes_of, RayLanes, RaySegment};
 
 /// Rays per stream (the width of the masks).
 pub(crate) const STREAM: usize = 16;
@@ -122,6 +122,9 @@ impl WideBvh {
         }
         // SAFETY: read only for rays in `live`, which were all written above.
         let pre = |i: usize| unsafe { pre.get_unchecked(i).assume_init_ref() };
+        // When every ray has the octant of the first, each node's planes are loaded once.
+        let first = live.trailing_zeros() as usize;
+        let one_octant = lanes_of(live).all(|i| same_octant(pre(i), pre(first)));
         let mut stack = [const { std::mem::MaybeUninit::<(u32, u32)>::uninit() }; STACK_SIZE];
         let mut sp = 0usize;
         let mut cur = self.root;
@@ -136,16 +139,32 @@ impl WideBvh {
                 // SAFETY: the CPU has AVX2 (this function's features).
                 let (mut rays_in, mut nearest) = (_mm256_setzero_si256(), _mm256_set1_ps(f32::INFINITY));
                 let mut m = cur_mask;
-                while m != 0 {
-                    let i = m.trailing_zeros() as usize;
-                    m &= m - 1;
-                    // SAFETY: AVX2 and FMA are enabled here; `pre(i)` comes from `RayPre::new`.
-                    let (near, entered) = unsafe { box_lanes_avx2(node, pre(i), t_min[i], t_best[i]) };
+                let mut add = |i: usize, (near, entered): (__m256, __m256)| {
                     let entered = _mm256_castps_si256(entered);
                     rays_in = _mm256_or_si256(rays_in, _mm256_and_si256(entered, _mm256_set1_epi32(1 << i)));
                     if !ANY {
                         nearest =
                             _mm256_min_ps(nearest, _mm256_blendv_ps(_mm256_set1_ps(f32::INFINITY), near, _mm256_castsi256_ps(entered)));
+                    }
+                };
+                if one_octant {
+                    // The node's planes loaded once for all the rays.
+                    // SAFETY: AVX2 and FMA are enabled here; `pre(first)` comes from
+                    // `RayPre::new`, and every ray shares its octant.
+                    let planes = unsafe { node_planes_avx2(node, pre(first)) };
+                    while m != 0 {
+                        let i = m.trailing_zeros() as usize;
+                        m &= m - 1;
+                        // SAFETY: as above.
+                        add(i, unsafe { box_planes_avx2(&planes, pre(i), t_min[i], t_best[i]) });
+                    }
+                } else {
+                    while m != 0 {
+                        let i = m.trailing_zeros() as usize;
+                        m &= m - 1;
+                        // SAFETY: AVX2 and FMA are enabled here; `pre(i)` comes from
+                        // `RayPre::new`.
+                        add(i, unsafe { box_lanes_avx2(node, pre(i), t_min[i], t_best[i]) });
                     }
                 }
                 let children = _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpgt_epi32(rays_in, _mm256_setzero_si256()))) as u32;
