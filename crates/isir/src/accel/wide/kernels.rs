@@ -185,7 +185,10 @@ pub(super) unsafe fn node_planes_avx2(node: &Node8, pre: &RayPre) -> [std::arch:
     use std::arch::x86_64::*;
     let base = std::ptr::from_ref(node).cast::<u8>();
     // SAFETY: as in `box_lanes_avx2`.
-    let plane = |o: usize| unsafe { _mm256_load_ps(base.add(o).cast()) };
+    let plane = |o: usize| unsafe {
+        debug_assert!(o.is_multiple_of(32) && o + 32 <= std::mem::offset_of!(Node8, child));
+        _mm256_load_ps(base.add(o).cast())
+    };
     let [(nx, fx), (ny, fy), (nz, fz)] = pre.near_far;
     [plane(nx), plane(fx), plane(ny), plane(fy), plane(nz), plane(fz)]
 }

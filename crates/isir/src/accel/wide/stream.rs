@@ -322,9 +322,8 @@ impl WideBvh {
 
     /// The rays `tied` of a stream (valid rays) traced again alone: where two triangles
     /// meet a ray at one distance, the single ray's answer depends on its own visiting
-    /// order. Rare, and out of line. PERF: the AVX2 traversal called directly; through
-    /// [`WideBvh::intersect`] (one more caller) LLVM inlined differently elsewhere, and
-    /// the path tracer, which never gets here, was 8% slower.
+    /// order. Rare, so cold and out of line; the stream runs only at the AVX2 level, so
+    /// this calls the AVX2 traversal directly.
     ///
     /// # Safety
     /// As for [`WideBvh::stream_avx2`].
