@@ -135,8 +135,7 @@ fn path_lanes(
         if defer {
             // The point light's samples and shadow rays of every lane at once; each
             // lane's two numbers drawn as `next_event` draws them (a point needs none).
-            let nee =
-                lanes_of(going).filter(|&k| hits[k].as_ref().is_some_and(|h| !scene.material(h).is_delta())).fold(0u32, |m, k| m | 1 << k);
+            let nee = nee_lanes(scene, &hits, going);
             for k in lanes_of(nee) {
                 samplers[k].next_2d();
             }
@@ -336,6 +335,13 @@ fn quad_pairs(
     }
 }
 
+/// The lanes among `going` whose hit takes next-event estimation (a material that is not
+/// a delta), as [`Path::light_direct`] decides it.
+#[inline(always)]
+fn nee_lanes(scene: &Scene, hits: &[Option<Hit>; LANES], going: u32) -> u32 {
+    lanes_of(going).filter(|&k| hits[k].as_ref().is_some_and(|h| !scene.material(h).is_delta())).fold(0u32, |m, k| m | 1 << k)
+}
+
 /// Next-event estimation of the paths `going` ([`Path::light_direct`]) in a scene lit by
 /// the one quad light `light`, sampled `n` times per vertex (fewer than [`BATCH_FROM`]):
 /// sample by sample, every lane's sample and shadow ray set up together
@@ -354,7 +360,7 @@ fn quad_nee_lanes(
     samplers: &mut [Sampler],
     counters: &mut RayCounters,
 ) {
-    let nee = lanes_of(going).filter(|&k| hits[k].as_ref().is_some_and(|h| !scene.material(h).is_delta())).fold(0u32, |m, k| m | 1 << k);
+    let nee = nee_lanes(scene, hits, going);
     let mut acc = [Color::ZERO; LANES];
     for _ in 0..n {
         let mut xi = [Vec2::ZERO; BATCH];
