@@ -9,7 +9,7 @@
 
 use super::{Scene, MESH_PACKET_FROM};
 use crate::geometry::{Geometry, Hit};
-use crate::math::ray::{lanes_of, RayLanes, LANES};
+use crate::math::ray::{lane_mask, lanes_of, RayLanes, LANES};
 
 /// No object: the lane's ray met nothing.
 pub const NO_OBJECT: u32 = u32::MAX;
@@ -63,6 +63,7 @@ impl Scene {
         for (k, v) in valid.iter_mut().enumerate().take(count) {
             *v = rays.ray(k).is_valid();
         }
+        let valid_lanes = lane_mask(&valid);
         if self.top_level.is_some() {
             for k in (0..count).filter(|&k| valid[k]) {
                 if let Some((i, t, prim, u, v)) = self.closest(&rays.ray(k), rays.t_min[k], rays.t_max[k]) {
@@ -86,14 +87,9 @@ impl Scene {
                 Geometry::Sphere(s) => mark(s.closest_lanes(rays, &mut t_best), &mut hits),
                 Geometry::Plane(p) => mark(p.closest_lanes(rays, &mut t_best), &mut hits),
                 Geometry::Mesh(m) => {
-                    // The mesh's box against all the lanes at once, then the lanes that may
-                    // meet it one by one.
-                    let mut near = m.may_hit_lanes(rays);
-                    for (k, &v) in valid.iter().enumerate() {
-                        if !v {
-                            near &= !(1 << k);
-                        }
-                    }
+                    // The mesh's box against all the lanes at once, then the valid lanes
+                    // that may meet it together (one stream where the mesh has one).
+                    let near = m.may_hit_lanes(rays) & valid_lanes;
                     let mut found = [None; LANES];
                     m.intersect_lanes_near(rays, &t_best, near, &mut found);
                     for k in lanes_of(near) {
