@@ -198,6 +198,26 @@ pub(super) fn same_octant(a: &RayPre, b: &RayPre) -> bool {
     a.neg == b.neg
 }
 
+/// Whether two rays leave from the same point, bit for bit (so they share an
+/// [`OriginPart`]).
+pub(super) fn same_origin(a: &RayPre, b: &RayPre) -> bool {
+    a.origin.to_array().map(f32::to_bits) == b.origin.to_array().map(f32::to_bits)
+}
+
+impl RayPre {
+    /// The origin, one coordinate per axis broadcast to eight lanes.
+    ///
+    /// # Safety
+    /// The CPU must have AVX.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub(super) unsafe fn origin_avx(&self) -> [std::arch::x86_64::__m256; 3] {
+        use std::arch::x86_64::_mm256_set1_ps;
+        // SAFETY: the caller guarantees AVX.
+        unsafe { [_mm256_set1_ps(self.origin.x), _mm256_set1_ps(self.origin.y), _mm256_set1_ps(self.origin.z)] }
+    }
+}
+
 /// [`box_lanes_avx2`] on planes already loaded by [`node_planes_avx2`] for a ray of
 /// `pre`'s octant.
 ///
@@ -362,15 +382,95 @@ pub(super) unsafe fn tri4x2_avx2(
     t_min: [f32; 2],
     t_max: [f32; 2],
 ) -> (u32, [std::arch::x86_64::__m256; 3]) {
-    use std::arch::x86_64::*;
-    // SAFETY: the caller guarantees AVX; `Tri4`'s rows are 16 bytes, read with unaligned
-    // broadcasts.
+    // SAFETY: the caller guarantees AVX.
     unsafe {
-        let ld = |r: &[f32; 4]| _mm256_broadcast_ps(&*r.as_ptr().cast::<__m128>());
-        let two = |x: f32, y: f32| _mm256_setr_m128(_mm_set1_ps(x), _mm_set1_ps(y));
+        let part = origin_part_avx2(tri, [two(a.origin.x, b.origin.x), two(a.origin.y, b.origin.y), two(a.origin.z, b.origin.z)]);
+        tri4x2_from_avx2(tri, &part, a, b, t_min, t_max)
+    }
+}
+
+/// The values of [`tri4x2_avx2`] that depend on the rays' origins and not on their
+/// directions: `s = o - v0`, `q = s × e1` and `e2 · q`, the numerator of `t`. Rays of one
+/// origin (a camera's, one hit's shadow rays) share them: computed once per block.
+#[cfg(target_arch = "x86_64")]
+pub(super) struct OriginPart {
+    s: [std::arch::x86_64::__m256; 3],
+    q: [std::arch::x86_64::__m256; 3],
+    t_num: std::arch::x86_64::__m256,
+}
+
+/// Two floats as the halves of an AVX register (`x` low, `y` high), each broadcast.
+///
+/// # Safety
+/// The CPU must have AVX.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn two(x: f32, y: f32) -> std::arch::x86_64::__m256 {
+    use std::arch::x86_64::*;
+    // SAFETY: the caller guarantees AVX.
+    unsafe { _mm256_setr_m128(_mm_set1_ps(x), _mm_set1_ps(y)) }
+}
+
+/// A row of a [`Tri4`] in both halves of an AVX register.
+///
+/// # Safety
+/// The CPU must have AVX.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn row(r: &[f32; 4]) -> std::arch::x86_64::__m256 {
+    // SAFETY: the caller guarantees AVX; a row is 16 bytes, read with an unaligned broadcast.
+    unsafe { std::arch::x86_64::_mm256_broadcast_ps(&*r.as_ptr().cast()) }
+}
+
+/// [`OriginPart`] of block `tri` for the origins `o` (per axis, one per half, or one
+/// origin broadcast to all eight lanes).
+///
+/// # Safety
+/// The CPU must have AVX.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+pub(super) unsafe fn origin_part_avx2(tri: &Tri4, o: [std::arch::x86_64::__m256; 3]) -> OriginPart {
+    use std::arch::x86_64::*;
+    // SAFETY: the caller guarantees AVX.
+    unsafe {
+        let (e1x, e1y, e1z) = (row(&tri.e1[0]), row(&tri.e1[1]), row(&tri.e1[2]));
+        let (e2x, e2y, e2z) = (row(&tri.e2[0]), row(&tri.e2[1]), row(&tri.e2[2]));
+        let mul = |x, y| _mm256_mul_ps(x, y);
+        let sub = |x, y| _mm256_sub_ps(x, y);
+        let add = |x, y| _mm256_add_ps(x, y);
+        // s = o - v0
+        let sx = sub(o[0], row(&tri.v0[0]));
+        let sy = sub(o[1], row(&tri.v0[1]));
+        let sz = sub(o[2], row(&tri.v0[2]));
+        // q = s × e1
+        let qx = sub(mul(sy, e1z), mul(sz, e1y));
+        let qy = sub(mul(sz, e1x), mul(sx, e1z));
+        let qz = sub(mul(sx, e1y), mul(sy, e1x));
+        let t_num = add(add(mul(e2x, qx), mul(e2y, qy)), mul(e2z, qz));
+        OriginPart { s: [sx, sy, sz], q: [qx, qy, qz], t_num }
+    }
+}
+
+/// [`tri4x2_avx2`] with the origins' part already computed.
+///
+/// # Safety
+/// The CPU must have AVX.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+pub(super) unsafe fn tri4x2_from_avx2(
+    tri: &Tri4,
+    part: &OriginPart,
+    a: &RayPre,
+    b: &RayPre,
+    t_min: [f32; 2],
+    t_max: [f32; 2],
+) -> (u32, [std::arch::x86_64::__m256; 3]) {
+    use std::arch::x86_64::*;
+    // SAFETY: the caller guarantees AVX.
+    unsafe {
         let (dx, dy, dz) = (two(a.dir.x, b.dir.x), two(a.dir.y, b.dir.y), two(a.dir.z, b.dir.z));
-        let (e1x, e1y, e1z) = (ld(&tri.e1[0]), ld(&tri.e1[1]), ld(&tri.e1[2]));
-        let (e2x, e2y, e2z) = (ld(&tri.e2[0]), ld(&tri.e2[1]), ld(&tri.e2[2]));
+        let (e1x, e1y, e1z) = (row(&tri.e1[0]), row(&tri.e1[1]), row(&tri.e1[2]));
+        let (e2x, e2y, e2z) = (row(&tri.e2[0]), row(&tri.e2[1]), row(&tri.e2[2]));
         let mul = |x, y| _mm256_mul_ps(x, y);
         let sub = |x, y| _mm256_sub_ps(x, y);
         let add = |x, y| _mm256_add_ps(x, y);
@@ -380,17 +480,11 @@ pub(super) unsafe fn tri4x2_avx2(
         let pz = sub(mul(dx, e2y), mul(dy, e2x));
         let det = add(add(mul(e1x, px), mul(e1y, py)), mul(e1z, pz));
         let inv = _mm256_div_ps(_mm256_set1_ps(1.0), det);
-        // s = o - v0
-        let sx = sub(two(a.origin.x, b.origin.x), ld(&tri.v0[0]));
-        let sy = sub(two(a.origin.y, b.origin.y), ld(&tri.v0[1]));
-        let sz = sub(two(a.origin.z, b.origin.z), ld(&tri.v0[2]));
+        let [sx, sy, sz] = part.s;
+        let [qx, qy, qz] = part.q;
         let u = mul(add(add(mul(sx, px), mul(sy, py)), mul(sz, pz)), inv);
-        // q = s × e1
-        let qx = sub(mul(sy, e1z), mul(sz, e1y));
-        let qy = sub(mul(sz, e1x), mul(sx, e1z));
-        let qz = sub(mul(sx, e1y), mul(sy, e1x));
         let v = mul(add(add(mul(dx, qx), mul(dy, qy)), mul(dz, qz)), inv);
-        let t = mul(add(add(mul(e2x, qx), mul(e2y, qy)), mul(e2z, qz)), inv);
+        let t = mul(part.t_num, inv);
         let zero = _mm256_setzero_ps();
         let one = _mm256_set1_ps(1.0);
         // The predicates of SSE's `cmpneq`, `cmpge`, `cmple` and `cmplt`.

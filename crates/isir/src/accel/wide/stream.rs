@@ -125,6 +125,12 @@ impl WideBvh {
         // When every ray has the octant of the first, each node's planes are loaded once.
         let first = live.trailing_zeros() as usize;
         let one_octant = lanes_of(live).all(|i| same_octant(pre(i), pre(first)));
+        // Rays of one origin (a camera's, one point's shadow rays) share the part of each
+        // block's test that depends on the origin, computed once per block. PERF: primary
+        // streams (conference room, one thread) 14.7 -> 15.5 Mrays/s. Two hits' shadow rays
+        // side by side (two origins) gain nothing: per block and origin only about three
+        // rays meet, and sharing per origin made the conference room 3% slower.
+        let one_origin = lanes_of(live).all(|i| same_origin(pre(i), pre(first)));
         let mut stack = [const { std::mem::MaybeUninit::<(u32, u32)>::uninit() }; STACK_SIZE];
         let mut sp = 0usize;
         let mut cur = self.root;
@@ -226,6 +232,8 @@ impl WideBvh {
                     // SAFETY: leaf codes are written by `convert` and index `tris`.
                     let tri = unsafe { self.tris.get_unchecked(b) };
                     let mut m = cur_mask;
+                    // SAFETY: the CPU has AVX2 (this function's features).
+                    let part = (one_origin && m & (m - 1) != 0).then(|| unsafe { origin_part_avx2(tri, pre(first).origin_avx()) });
                     while m != 0 {
                         let i = m.trailing_zeros() as usize;
                         m &= m - 1;
@@ -253,7 +261,12 @@ impl WideBvh {
                         let j = m.trailing_zeros() as usize;
                         m &= m - 1;
                         // SAFETY: the CPU has AVX2 (this function's features).
-                        let (hits, tuv) = unsafe { tri4x2_avx2(tri, pre(i), pre(j), [t_min[i], t_min[j]], [t_lim[i], t_lim[j]]) };
+                        let (hits, tuv) = unsafe {
+                            match &part {
+                                Some(part) => tri4x2_from_avx2(tri, part, pre(i), pre(j), [t_min[i], t_min[j]], [t_lim[i], t_lim[j]]),
+                                None => tri4x2_avx2(tri, pre(i), pre(j), [t_min[i], t_min[j]], [t_lim[i], t_lim[j]]),
+                            }
+                        };
                         if hits == 0 {
                             continue;
                         }
