@@ -218,31 +218,89 @@ impl RayPre {
     }
 }
 
-/// [`box_lanes_avx2`] on planes already loaded by [`node_planes_avx2`] for a ray of
-/// `pre`'s octant.
+/// A stream ray's test of a node's eight boxes, planes already loaded by
+/// [`node_planes_avx2`] for its octant: see [`box_stream_avx2`].
 ///
 /// # Safety
 /// The CPU must have AVX2 and FMA.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-pub(super) unsafe fn box_planes_avx2(
+pub(super) unsafe fn box_planes_stream_avx2(
     planes: &[std::arch::x86_64::__m256; 6],
     pre: &RayPre,
     t_min: f32,
     t_max: f32,
-) -> (std::arch::x86_64::__m256, std::arch::x86_64::__m256) {
+    bit: std::arch::x86_64::__m256i,
+) -> (std::arch::x86_64::__m256, std::arch::x86_64::__m256i, std::arch::x86_64::__m256) {
     // SAFETY: the caller guarantees AVX2 and FMA.
-    unsafe { box_slabs_avx2(|axis, far| planes[2 * axis + usize::from(far)], pre, t_min, t_max) }
+    unsafe { box_stream_avx2(|axis, far| planes[2 * axis + usize::from(far)], pre, t_min, t_max, bit) }
 }
 
-/// The slab test of [`box_lanes_avx2`], `plane(axis, far)` giving the near or far plane
-/// of an axis.
+/// [`box_planes_stream_avx2`] reading each plane from the node.
+///
+/// # Safety
+/// As for [`box_test_avx2`].
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+pub(super) unsafe fn box_lanes_stream_avx2(
+    node: &Node8,
+    pre: &RayPre,
+    t_min: f32,
+    t_max: f32,
+    bit: std::arch::x86_64::__m256i,
+) -> (std::arch::x86_64::__m256, std::arch::x86_64::__m256i, std::arch::x86_64::__m256) {
+    let base = std::ptr::from_ref(node).cast::<u8>();
+    // SAFETY: as in `box_lanes_avx2`.
+    let plane = |o: usize| unsafe { std::arch::x86_64::_mm256_load_ps(base.add(o).cast()) };
+    // SAFETY: the caller guarantees AVX2, FMA and `pre`.
+    unsafe { box_stream_avx2(|axis, far| plane(if far { pre.near_far[axis].1 } else { pre.near_far[axis].0 }), pre, t_min, t_max, bit) }
+}
+
+/// The box test of [`box_slabs_avx2`] (the same hit lanes) shaped for a stream: the lanes
+/// entered as `bit` (the ray's bit in every entered lane, zero elsewhere), ready to OR
+/// into the children's masks; the entry distances, unwidened (they only order the
+/// children); and the missed lanes (all bits set). PERF: three fewer instructions per
+/// ray and node than OR-ing [`box_slabs_avx2`]'s answer, and no widening of the near
+/// distances.
 ///
 /// # Safety
 /// The CPU must have AVX2 and FMA.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-unsafe fn box_slabs_avx2(
+unsafe fn box_stream_avx2(
+    plane: impl Fn(usize, bool) -> std::arch::x86_64::__m256,
+    pre: &RayPre,
+    t_min: f32,
+    t_max: f32,
+    bit: std::arch::x86_64::__m256i,
+) -> (std::arch::x86_64::__m256, std::arch::x86_64::__m256i, std::arch::x86_64::__m256) {
+    use std::arch::x86_64::*;
+    // SAFETY: the caller guarantees AVX2 and FMA.
+    unsafe {
+        let (near, far) = slabs_avx2(plane, pre, t_min, t_max);
+        let missed = if t_min >= 0.0 {
+            // `box_slabs_avx2`'s hit is `!too_far | neg_zero`: missed is its complement.
+            let (ni, fi) = (_mm256_castps_si256(near), _mm256_castps_si256(far));
+            let ulps = _mm256_set1_epi32(WIDEN_ULPS);
+            let too_far = _mm256_cmpgt_epi32(ni, _mm256_add_epi32(fi, _mm256_add_epi32(ulps, ulps)));
+            let neg_zero = _mm256_cmpeq_epi32(fi, _mm256_set1_epi32(i32::MIN));
+            _mm256_castsi256_ps(_mm256_andnot_si256(neg_zero, too_far))
+        } else {
+            let (near, far) = widen_avx2(near, far);
+            _mm256_cmp_ps::<_CMP_NLE_UQ>(near, far)
+        };
+        (near, _mm256_andnot_si256(_mm256_castps_si256(missed), bit), missed)
+    }
+}
+
+/// The raw slab distances of [`box_slabs_avx2`]: per lane, the largest entry (at least
+/// `t_min`) and the smallest exit (at most `t_max`).
+///
+/// # Safety
+/// The CPU must have AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn slabs_avx2(
     plane: impl Fn(usize, bool) -> std::arch::x86_64::__m256,
     pre: &RayPre,
     t_min: f32,
@@ -261,6 +319,46 @@ unsafe fn box_slabs_avx2(
             near = _mm256_max_ps(near, tn);
             far = _mm256_min_ps(far, tf);
         }
+        (near, far)
+    }
+}
+
+/// The widening of a box interval when `t_min` may be negative: `|x|·WIDEN` on each side.
+///
+/// # Safety
+/// The CPU must have AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn widen_avx2(
+    near: std::arch::x86_64::__m256,
+    far: std::arch::x86_64::__m256,
+) -> (std::arch::x86_64::__m256, std::arch::x86_64::__m256) {
+    use std::arch::x86_64::*;
+    // SAFETY: the caller guarantees AVX2 and FMA.
+    unsafe {
+        let widen = _mm256_set1_ps(WIDEN);
+        let sign = _mm256_set1_ps(-0.0);
+        (_mm256_fnmadd_ps(_mm256_andnot_ps(sign, near), widen, near), _mm256_fmadd_ps(_mm256_andnot_ps(sign, far), widen, far))
+    }
+}
+
+/// The slab test of [`box_lanes_avx2`], `plane(axis, far)` giving the near or far plane
+/// of an axis.
+///
+/// # Safety
+/// The CPU must have AVX2 and FMA.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn box_slabs_avx2(
+    plane: impl Fn(usize, bool) -> std::arch::x86_64::__m256,
+    pre: &RayPre,
+    t_min: f32,
+    t_max: f32,
+) -> (std::arch::x86_64::__m256, std::arch::x86_64::__m256) {
+    use std::arch::x86_64::*;
+    // SAFETY: the caller guarantees AVX2 and FMA.
+    unsafe {
+        let (near, far) = slabs_avx2(plane, pre, t_min, t_max);
         if t_min >= 0.0 {
             // Widened in ULPs, on the float bits: `near` (>= 0, or -0.0) moves down by
             // WIDEN_ULPS, `far` up by as many when >= 0. Adding to the bits of a
@@ -277,10 +375,7 @@ unsafe fn box_slabs_avx2(
             let hit = _mm256_or_si256(_mm256_andnot_si256(too_far, _mm256_set1_epi32(-1)), neg_zero);
             return (_mm256_castsi256_ps(lowered), _mm256_castsi256_ps(hit));
         }
-        let widen = _mm256_set1_ps(WIDEN);
-        let sign = _mm256_set1_ps(-0.0);
-        near = _mm256_fnmadd_ps(_mm256_andnot_ps(sign, near), widen, near);
-        far = _mm256_fmadd_ps(_mm256_andnot_ps(sign, far), widen, far);
+        let (near, far) = widen_avx2(near, far);
         (near, _mm256_cmp_ps::<_CMP_LE_OQ>(near, far))
     }
 }

@@ -21,6 +21,21 @@ use super::traverse::{nearer_count, sort_keys};
 use super::*;
 use crate::math::ray::{lanes_of, RayLanes, RaySegment};
 
+/// Row `i`: ray `i`'s bit in all eight lanes (one aligned load instead of a shift and a
+/// broadcast).
+#[repr(C, align(32))]
+struct LaneBits([u32; 8]);
+
+static RAY_BITS: [LaneBits; STREAM] = {
+    let mut t = [const { LaneBits([0; 8]) }; STREAM];
+    let mut i = 0;
+    while i < STREAM {
+        t[i] = LaneBits([1 << i; 8]);
+        i += 1;
+    }
+    t
+};
+
 /// Rays per stream (the width of the masks).
 pub(crate) const STREAM: usize = 16;
 
@@ -145,14 +160,14 @@ impl WideBvh {
                 // SAFETY: the CPU has AVX2 (this function's features).
                 let (mut rays_in, mut nearest) = (_mm256_setzero_si256(), _mm256_set1_ps(f32::INFINITY));
                 let mut m = cur_mask;
-                let mut add = |i: usize, (near, entered): (__m256, __m256)| {
-                    let entered = _mm256_castps_si256(entered);
-                    rays_in = _mm256_or_si256(rays_in, _mm256_and_si256(entered, _mm256_set1_epi32(1 << i)));
+                let mut add = |(near, entered, missed): (__m256, __m256i, __m256)| {
+                    rays_in = _mm256_or_si256(rays_in, entered);
                     if !ANY {
-                        nearest =
-                            _mm256_min_ps(nearest, _mm256_blendv_ps(_mm256_set1_ps(f32::INFINITY), near, _mm256_castsi256_ps(entered)));
+                        nearest = _mm256_min_ps(nearest, _mm256_blendv_ps(near, _mm256_set1_ps(f32::INFINITY), missed));
                     }
                 };
+                // SAFETY: `RAY_BITS` holds 32-byte aligned rows of eight `u32`s.
+                let bit = |i: usize| unsafe { _mm256_load_si256(RAY_BITS[i].0.as_ptr().cast()) };
                 if one_octant {
                     // The node's planes loaded once for all the rays.
                     // SAFETY: AVX2 and FMA are enabled here; `pre(first)` comes from
@@ -162,7 +177,7 @@ impl WideBvh {
                         let i = m.trailing_zeros() as usize;
                         m &= m - 1;
                         // SAFETY: as above.
-                        add(i, unsafe { box_planes_avx2(&planes, pre(i), t_min[i], t_best[i]) });
+                        add(unsafe { box_planes_stream_avx2(&planes, pre(i), t_min[i], t_best[i], bit(i)) });
                     }
                 } else {
                     while m != 0 {
@@ -170,7 +185,7 @@ impl WideBvh {
                         m &= m - 1;
                         // SAFETY: AVX2 and FMA are enabled here; `pre(i)` comes from
                         // `RayPre::new`.
-                        add(i, unsafe { box_lanes_avx2(node, pre(i), t_min[i], t_best[i]) });
+                        add(unsafe { box_lanes_stream_avx2(node, pre(i), t_min[i], t_best[i], bit(i)) });
                     }
                 }
                 let children = _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpgt_epi32(rays_in, _mm256_setzero_si256()))) as u32;
