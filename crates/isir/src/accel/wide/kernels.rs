@@ -172,7 +172,12 @@ pub(super) unsafe fn box_lanes_avx2(
     };
     // SAFETY: as above. PERF: each plane loaded where it is used (the single-ray
     // traversal was 4% slower with the six loads first).
-    unsafe { box_slabs_avx2(|axis, far| plane(if far { pre.near_far[axis].1 } else { pre.near_far[axis].0 }), pre, t_min, t_max) }
+    unsafe {
+        box_slabs_avx2(
+            slabs_avx2(|axis, far| plane(if far { pre.near_far[axis].1 } else { pre.near_far[axis].0 }), pre, t_min, t_max),
+            t_min,
+        )
+    }
 }
 
 /// A node's near and far planes for the octant of `pre`: `[near x, far x, near y, ...]`.
@@ -280,10 +285,7 @@ unsafe fn box_stream_avx2(
         let (near, far) = slabs_avx2(plane, pre, t_min, t_max);
         let missed = if t_min >= 0.0 {
             // `box_slabs_avx2`'s hit is `!too_far | neg_zero`: missed is its complement.
-            let (ni, fi) = (_mm256_castps_si256(near), _mm256_castps_si256(far));
-            let ulps = _mm256_set1_epi32(WIDEN_ULPS);
-            let too_far = _mm256_cmpgt_epi32(ni, _mm256_add_epi32(fi, _mm256_add_epi32(ulps, ulps)));
-            let neg_zero = _mm256_cmpeq_epi32(fi, _mm256_set1_epi32(i32::MIN));
+            let (too_far, neg_zero) = beyond_avx2(near, far);
             _mm256_castsi256_ps(_mm256_andnot_si256(neg_zero, too_far))
         } else {
             let (near, far) = widen_avx2(near, far);
@@ -293,8 +295,9 @@ unsafe fn box_stream_avx2(
     }
 }
 
-/// The raw slab distances of [`box_slabs_avx2`]: per lane, the largest entry (at least
-/// `t_min`) and the smallest exit (at most `t_max`).
+/// A ray's raw slab distances to a node's eight boxes, `plane(axis, far)` giving the near
+/// or far plane of an axis: per lane, the largest entry (at least `t_min`) and the
+/// smallest exit (at most `t_max`), not yet widened.
 ///
 /// # Safety
 /// The CPU must have AVX2 and FMA.
@@ -323,6 +326,28 @@ unsafe fn slabs_avx2(
     }
 }
 
+/// The widened comparison of a box interval when `t_min >= 0`, on the float bits (see
+/// [`box_slabs_avx2`]): per lane, whether `near` lies beyond `far` by more than twice
+/// [`WIDEN_ULPS`], and whether `far` is -0.0.
+///
+/// # Safety
+/// The CPU must have AVX2.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn beyond_avx2(
+    near: std::arch::x86_64::__m256,
+    far: std::arch::x86_64::__m256,
+) -> (std::arch::x86_64::__m256i, std::arch::x86_64::__m256i) {
+    use std::arch::x86_64::*;
+    // SAFETY: the caller guarantees AVX2.
+    unsafe {
+        let (ni, fi) = (_mm256_castps_si256(near), _mm256_castps_si256(far));
+        let ulps = _mm256_set1_epi32(WIDEN_ULPS);
+        let too_far = _mm256_cmpgt_epi32(ni, _mm256_add_epi32(fi, _mm256_add_epi32(ulps, ulps)));
+        (too_far, _mm256_cmpeq_epi32(fi, _mm256_set1_epi32(i32::MIN)))
+    }
+}
+
 /// The widening of a box interval when `t_min` may be negative: `|x|·WIDEN` on each side.
 ///
 /// # Safety
@@ -342,23 +367,20 @@ unsafe fn widen_avx2(
     }
 }
 
-/// The slab test of [`box_lanes_avx2`], `plane(axis, far)` giving the near or far plane
-/// of an axis.
+/// The slab test of [`box_lanes_avx2`] finished: the raw distances of [`slabs_avx2`]
+/// widened so that rounding never culls a box the ray enters, and the hit lanes.
 ///
 /// # Safety
 /// The CPU must have AVX2 and FMA.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
 unsafe fn box_slabs_avx2(
-    plane: impl Fn(usize, bool) -> std::arch::x86_64::__m256,
-    pre: &RayPre,
+    (near, far): (std::arch::x86_64::__m256, std::arch::x86_64::__m256),
     t_min: f32,
-    t_max: f32,
 ) -> (std::arch::x86_64::__m256, std::arch::x86_64::__m256) {
     use std::arch::x86_64::*;
     // SAFETY: the caller guarantees AVX2 and FMA.
     unsafe {
-        let (near, far) = slabs_avx2(plane, pre, t_min, t_max);
         if t_min >= 0.0 {
             // Widened in ULPs, on the float bits: `near` (>= 0, or -0.0) moves down by
             // WIDEN_ULPS, `far` up by as many when >= 0. Adding to the bits of a
@@ -367,11 +389,9 @@ unsafe fn box_slabs_avx2(
             // `i32::MIN`, so a -0.0 `near` accepts: conservative. PERF: integer adds and
             // compares instead of two multiplies and a float compare on the path from
             // the node's loads to the next node: primary +3.7%, diffuse +1.8%, shadow +1.8%.
-            let (ni, fi) = (_mm256_castps_si256(near), _mm256_castps_si256(far));
+            let (too_far, neg_zero) = beyond_avx2(near, far);
             let ulps = _mm256_set1_epi32(WIDEN_ULPS);
-            let too_far = _mm256_cmpgt_epi32(ni, _mm256_add_epi32(fi, _mm256_add_epi32(ulps, ulps)));
-            let neg_zero = _mm256_cmpeq_epi32(fi, _mm256_set1_epi32(i32::MIN));
-            let lowered = _mm256_sub_epi32(_mm256_max_epi32(ni, ulps), ulps);
+            let lowered = _mm256_sub_epi32(_mm256_max_epi32(_mm256_castps_si256(near), ulps), ulps);
             let hit = _mm256_or_si256(_mm256_andnot_si256(too_far, _mm256_set1_epi32(-1)), neg_zero);
             return (_mm256_castsi256_ps(lowered), _mm256_castsi256_ps(hit));
         }
