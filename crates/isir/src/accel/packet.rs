@@ -10,7 +10,7 @@
 //! return the same hits as single rays.
 
 #[cfg(target_arch = "x86_64")]
-use crate::accel::wide::stream::{LanesUpTo, MaskedLanes};
+use crate::accel::wide::stream::{LanePair, LanesUpTo, MaskedLanes};
 use crate::accel::wide::{SimdLevel, WideBvh};
 use crate::accel::MeshHit;
 use crate::math::ray::{lanes_of, RayLanes, RaySegment, LANES};
@@ -143,6 +143,21 @@ impl WideBvh {
             n += 1;
         }
         lanes_of(self.occluded_packet(&group[..n])).fold(0, |m, g| m | 1 << index[g])
+    }
+
+    /// [`WideBvh::occluded_lanes`] for two batches at once, `[first's, second's]`: on
+    /// AVX2, their rays as one stream of up to 32 (the nodes fetched and tested once for
+    /// all of them); otherwise batch by batch.
+    #[must_use]
+    pub fn occluded_lane_pair(&self, rays: [&RayLanes; 2], mask: [u32; 2]) -> [u32; 2] {
+        let mask = mask.map(|m| m & (u32::MAX >> (32 - LANES)));
+        #[cfg(target_arch = "x86_64")]
+        if self.level() == SimdLevel::Avx2 && !self.watertight && (mask[0].count_ones() + mask[1].count_ones()) > 1 {
+            // SAFETY: the level is only ever Avx2 when the CPU reported AVX2; not watertight.
+            let hit = unsafe { self.stream_avx2::<true, _>(&LanePair(rays, mask), &mut []) };
+            return [hit & (u32::MAX >> (32 - LANES)), hit >> LANES];
+        }
+        [self.occluded_lanes(rays[0], mask[0]), self.occluded_lanes(rays[1], mask[1])]
     }
 
     /// The AVX-512 packet traversal; false (nothing written) when the rays' direction

@@ -608,6 +608,17 @@ impl TriangleMesh {
         }
     }
 
+    /// [`Self::occluded_lanes`] for two batches at once, `[first's, second's]`: one AVX2
+    /// stream through the wide BVH ([`WideBvh::occluded_lane_pair`]), batch by batch
+    /// otherwise.
+    #[must_use]
+    pub fn occluded_lane_pair(&self, rays: [&RayLanes; 2], mask: [u32; 2]) -> [u32; 2] {
+        match &self.accel {
+            MeshAccel::Wide(w) => w.occluded_lane_pair(rays, mask),
+            _ => [self.occluded_lanes(rays[0], mask[0]), self.occluded_lanes(rays[1], mask[1])],
+        }
+    }
+
     /// The face normal `normalize((v1-v0) × (v2-v0))` of triangle `prim`.
     #[must_use]
     pub fn face_normal(&self, prim: u32) -> Vec3 {

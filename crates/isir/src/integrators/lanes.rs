@@ -241,7 +241,7 @@ fn direct_lanes(
         if let LightSampler::Quad { .. } = light_sampler {
             let m = light_samples.max(1);
             if (BATCH_FROM..=(BATCH / 2) as u32).contains(&m) {
-                quad_pairs(scene, rays, hits, &light_sampler, &shadow_rays, m as usize, samplers, counters, &mut li);
+                quad_groups(scene, rays, hits, &light_sampler, &shadow_rays, m as usize, samplers, counters, &mut li);
                 continue;
             }
             for k in 0..n {
@@ -280,14 +280,16 @@ fn direct_lanes(
 }
 
 /// A quad light of `m` samples, at most eight, in every lane with a hit (the conference
-/// room's eight): lanes two by two, each one's samples set up and shaded as
-/// [`quad_light`] does ([`QuadBatch`]), the two lanes' shadow rays traced as one stream
-/// of sixteen, then each lane's sum added to `li` as [`quad_light`] makes it (the same
-/// floats).
-/// PERF: the two lanes' hits are samples of one pixel: their rays share most nodes, and
-/// the stream's per-node work is done once for both.
+/// room's eight): lanes four by four, each one's samples set up and shaded as
+/// [`quad_light`] does ([`QuadBatch`]), two lanes' shadow rays to a batch of sixteen and
+/// the two batches traced together ([`Scene::occluded_lane_pair`]: one stream of up to
+/// thirty-two in a scene of one mesh), then each lane's sum added to `li` as
+/// [`quad_light`] makes it (the same floats).
+/// PERF: the lanes' hits are samples of one pixel: their rays share most nodes, and the
+/// stream's per-node work is done once for all of them (two lanes to a stream instead of
+/// one: 6% faster; four instead of two: 4%).
 #[allow(clippy::too_many_arguments)]
-fn quad_pairs(
+fn quad_groups(
     scene: &Scene,
     rays: &RayLanes,
     hits: &[Option<Hit>; LANES],
@@ -301,14 +303,15 @@ fn quad_pairs(
     const HALF: usize = BATCH / 2;
     debug_assert!(m <= HALF);
     let n = samplers.len();
-    // Reused from pair to pair: `fill` rewrites the eight lanes used, the others stay zero.
-    let mut batches = [QuadBatch::EMPTY, QuadBatch::EMPTY];
-    let mut f = [[[0f32; BATCH]; 3]; 2];
-    for first in (0..n).step_by(2) {
-        let mut both = RayLanes::EMPTY;
-        let mut live = 0u32;
-        let mut filled = [false; 2];
-        for (i, k) in (first..(first + 2).min(n)).enumerate() {
+    // Reused from group to group: `fill` rewrites the eight lanes used, the others stay zero.
+    let mut batches = [QuadBatch::EMPTY, QuadBatch::EMPTY, QuadBatch::EMPTY, QuadBatch::EMPTY];
+    let mut f = [[[0f32; BATCH]; 3]; 4];
+    for first in (0..n).step_by(4) {
+        // Lanes `first + i`: batch `i / 2`, its half `i % 2`.
+        let mut both = [RayLanes::EMPTY, RayLanes::EMPTY];
+        let mut live = [0u32; 2];
+        let mut filled = [false; 4];
+        for (i, k) in (first..(first + 4).min(n)).enumerate() {
             let (Some(hit), Some(sr)) = (&hits[k], &shadow_rays[k]) else { continue };
             let mut xi = [Vec2::ZERO; BATCH];
             for x in &mut xi[..m] {
@@ -318,18 +321,18 @@ fn quad_pairs(
             batch.fill(light_sampler, sr, hit.normal, &xi, m);
             let lane_live = live_mask(&batch.live, m);
             counters.shadow += u64::from(lane_live.count_ones());
-            live |= lane_live << (i * HALF);
+            live[i / 2] |= lane_live << ((i % 2) * HALF);
             for j in 0..m {
                 let r = batch.rays.segment(j);
-                both.set(i * HALF + j, r.origin, r.direction, r.t_min, r.t_max);
+                both[i / 2].set((i % 2) * HALF + j, r.origin, r.direction, r.t_min, r.t_max);
             }
             f[i] = batch.shade(scene.material(hit), &rays.ray(k), hit);
             filled[i] = true;
         }
-        let blocked = if live == 0 { 0 } else { scene.occluded_lanes(&both, live) };
-        for i in (0..2).filter(|&i| filled[i]) {
+        let blocked = if live == [0, 0] { [0, 0] } else { scene.occluded_lane_pair([&both[0], &both[1]], live) };
+        for i in (0..4).filter(|&i| filled[i]) {
             let mut sum = Color::ZERO;
-            batches[i].add_seen(&f[i], (live & !blocked) >> (i * HALF), m, &mut sum);
+            batches[i].add_seen(&f[i], (live[i / 2] & !blocked[i / 2]) >> ((i % 2) * HALF), m, &mut sum);
             li[first + i] += sum / m as f32;
         }
     }

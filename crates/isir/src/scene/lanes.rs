@@ -7,7 +7,7 @@
 //! meshes and the other shapes take the lanes one by one. Objects are met in the order of
 //! [`Scene::intersect`], so ties between objects go to the same one.
 
-use super::{Scene, MESH_PACKET_FROM};
+use super::{Object, Scene, MESH_PACKET_FROM};
 use crate::geometry::{Geometry, Hit};
 use crate::math::ray::{lane_mask, lanes_of, RayLanes, LANES};
 
@@ -153,6 +153,21 @@ impl Scene {
             return unsafe { self.occluded_lanes_avx2(rays, live) };
         }
         self.occluded_lanes_portable(rays, live)
+    }
+
+    /// [`Scene::occluded_lanes`] for two batches of lanes at once (`[first's, second's]`,
+    /// the same answers). A scene of one mesh traces both batches' rays as one stream
+    /// ([`crate::geometry::TriangleMesh::occluded_lane_pair`]): four hits' light samples
+    /// share every node of the tree. Other scenes go batch by batch.
+    #[must_use]
+    pub fn occluded_lane_pair(&self, rays: [&RayLanes; 2], live: [u32; 2]) -> [u32; 2] {
+        if self.top_level.is_none() {
+            if let [Object { geometry: Geometry::Mesh(m), .. }] = self.objects.as_slice() {
+                let open = [live[0] & rays[0].valid_mask(), live[1] & rays[1].valid_mask()];
+                return m.occluded_lane_pair(rays, open);
+            }
+        }
+        [self.occluded_lanes(rays[0], live[0]), self.occluded_lanes(rays[1], live[1])]
     }
 
     /// [`Scene::occluded_lanes`] compiled for AVX2: the lane loops eight lanes wide (no FMA
@@ -313,6 +328,62 @@ mod tests {
                 }
             }
             assert!(blocked > 300 && open > 300, "{name}: {blocked} blocked, {open} open");
+        }
+    }
+
+    /// `occluded_lane_pair` answers as `Scene::occluded`, lane by lane in both batches: on a
+    /// scene of one mesh (both batches as one stream, lane 31 included) and on one of a
+    /// mesh among planes (batch by batch). Shadow rays between surface points, two points
+    /// to a batch as the renderer makes them, with invalid rays and partial masks.
+    #[test]
+    fn occluded_lane_pair_answers_as_occluded() {
+        let mut rng = Sampler::from_seed(12);
+        let mut masks = Sampler::from_seed(13);
+        for name in ["tp4-conference", "tp4-bunny"] {
+            let desc = scenes::builtin(name).unwrap();
+            let scene = desc.build(Accel::BvhSah).unwrap();
+            let camera = desc.camera.build(1.5);
+            let mut seen = || {
+                let r = camera.generate_ray(rng.next_f32(), rng.next_f32());
+                scene.intersect(&r, 0.0, f32::INFINITY).map_or(r.origin + r.direction, |h| h.point + h.geometric_normal * 1e-2)
+            };
+            let (mut blocked, mut open) = (0, 0);
+            for round in 0..150 {
+                let batches: [Vec<RaySegment>; 2] = std::array::from_fn(|b| {
+                    let origins = [seen(), seen()];
+                    (0..LANES)
+                        .map(|k| {
+                            let origin = origins[k / (LANES / 2)];
+                            let to = seen() - origin;
+                            let mut direction = to.normalize_or_zero();
+                            match (round + k + b) % 23 {
+                                0 => direction = Vec3::ZERO,
+                                1 => direction.y = f32::NAN,
+                                _ => {}
+                            }
+                            RaySegment { origin, t_min: 0.0, direction, t_max: to.length() * (1.0 - 1e-4) }
+                        })
+                        .collect()
+                });
+                let lanes = [RayLanes::new(&batches[0]), RayLanes::new(&batches[1])];
+                let live = match round % 3 {
+                    0 => [u32::MAX, u32::MAX],
+                    1 => [0, (1 << (round % LANES)) | 1 << (LANES - 1)],
+                    _ => [masks.next_f32().to_bits() >> 7 & 0xffff, masks.next_f32().to_bits() >> 7 & 0xffff],
+                };
+                let got = scene.occluded_lane_pair([&lanes[0], &lanes[1]], live);
+                for b in 0..2 {
+                    assert_eq!(got[b] >> LANES, 0, "{name}: bits beyond the lanes");
+                    for (k, r) in batches[b].iter().enumerate() {
+                        let expected = live[b] & (1 << k) != 0 && scene.occluded(&r.ray(), r.t_min, r.t_max);
+                        assert_eq!(got[b] & (1 << k) != 0, expected, "{name}, round {round}, batch {b}, lane {k}: {r:?}");
+                        if live[b] & (1 << k) != 0 && r.ray().is_valid() {
+                            *(if expected { &mut blocked } else { &mut open }) += 1;
+                        }
+                    }
+                }
+            }
+            assert!(blocked > 200 && open > 200, "{name}: {blocked} blocked, {open} open");
         }
     }
 
