@@ -38,7 +38,7 @@ static RAY_BITS: [LaneBits; STREAM] = {
 
 /// Rays per stream (the width of the masks): two batches of [`LANES`] lanes.
 /// PERF: the conference room's shadow rays, four hits' eight light samples to a stream
-/// instead of two hits': 1.638 -> 1.574 s at 16 spp (streams of sixteen as fast as before).
+/// instead of two hits': 1.628 -> 1.547 s at 16 spp (streams of sixteen as fast as before).
 pub(crate) const STREAM: usize = 2 * LANES;
 
 /// Where a stream's rays come from: ray `i` and its interval, or `None` for a ray not to
