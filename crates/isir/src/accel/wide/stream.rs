@@ -68,12 +68,12 @@ pub(crate) struct MaskedLanes<'a>(pub(crate) &'a RayLanes, pub(crate) u32);
 
 /// The lanes of a [`RayLanes`] whose bits are set in the mask, each up to its own `t_max`
 /// (the closest hit so far in a scene of several objects) instead of the lanes' own.
-pub(crate) struct LanesUpTo<'a>(pub(crate) &'a RayLanes, pub(crate) &'a [f32; crate::math::ray::LANES], pub(crate) u32);
+pub(crate) struct LanesUpTo<'a>(pub(crate) &'a RayLanes, pub(crate) &'a [f32; LANES], pub(crate) u32);
 
 impl StreamRays for LanesUpTo<'_> {
     #[inline(always)]
     fn count(&self) -> usize {
-        (32 - self.2.leading_zeros() as usize).min(crate::math::ray::LANES)
+        (32 - self.2.leading_zeros() as usize).min(LANES)
     }
 
     #[inline(always)]
@@ -108,7 +108,7 @@ impl StreamRays for LanePair<'_> {
 impl StreamRays for MaskedLanes<'_> {
     #[inline(always)]
     fn count(&self) -> usize {
-        (32 - self.1.leading_zeros() as usize).min(crate::math::ray::LANES)
+        (32 - self.1.leading_zeros() as usize).min(LANES)
     }
 
     #[inline(always)]
