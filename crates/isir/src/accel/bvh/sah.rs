@@ -262,9 +262,83 @@ pub(super) fn best_split<const NB: usize>(bins: &Bins<NB>) -> Option<(usize, usi
     best
 }
 
-/// Partition `prims` so those for which `left` holds come first, accumulating the bounds
-/// of each side as every record is placed. Returns the count on the left and both bounds.
+/// Nodes of at most this many records are partitioned without branches on the records
+/// ([`partition_flags`]); larger ones, which do not fit in the cache, in one pass.
+const FLAGS_UP_TO: usize = 16384;
+
+/// Partition `prims` so those for which `left` holds come first, and return the count on
+/// the left and the bounds of both sides: the records in the order, and the bounds bit
+/// for bit (signed zeros included), of [`partition_hoare`].
 pub(super) fn partition_bounds(prims: &mut [PrimRef], left: impl Fn(&PrimRef) -> bool) -> (usize, Bounds, Bounds) {
+    if prims.len() <= FLAGS_UP_TO {
+        partition_flags(prims, left)
+    } else {
+        partition_hoare(prims, left)
+    }
+}
+
+/// [`partition_hoare`] without a branch on each record's side: the sides as a bit mask
+/// first, then the same swaps (the `j`-th right record from the start with the `j`-th
+/// left record from the end, while they are on the wrong sides), then each side's bounds
+/// grown in the order Hoare's scans grow them (the left side forwards, the right side
+/// backwards), so the signed zeros of the bounds are the same too.
+/// PERF: the side of a record is a coin toss to the branch predictor.
+fn partition_flags(prims: &mut [PrimRef], left: impl Fn(&PrimRef) -> bool) -> (usize, Bounds, Bounds) {
+    const WORDS: usize = FLAGS_UP_TO / 64;
+    let n = prims.len();
+    debug_assert!(n <= FLAGS_UP_TO);
+    let mut flags = [0u64; WORDS];
+    for (word, chunk) in flags.iter_mut().zip(prims.chunks(64)) {
+        let mut bits = 0u64;
+        for (b, p) in chunk.iter().enumerate() {
+            bits |= u64::from(left(p)) << b;
+        }
+        *word = bits;
+    }
+    let words = n.div_ceil(64);
+    let k: usize = flags[..words].iter().map(|w| w.count_ones() as usize).sum();
+    // Bits of the positions below `k` in word `w`.
+    let below = |w: usize| -> u64 {
+        if (w + 1) * 64 <= k {
+            !0
+        } else if w * 64 >= k {
+            0
+        } else {
+            (1u64 << (k - w * 64)) - 1
+        }
+    };
+    // Right records before `k`, from the start; left records from `k` on, from the end.
+    let (mut lw, mut rw) = (0usize, words - 1);
+    let (mut lbits, mut rbits) = (!flags[0] & below(0), flags[rw] & !below(rw));
+    'swaps: loop {
+        while lbits == 0 {
+            lw += 1;
+            if lw * 64 >= k {
+                break 'swaps;
+            }
+            lbits = !flags[lw] & below(lw);
+        }
+        let i = lw * 64 + lbits.trailing_zeros() as usize;
+        lbits &= lbits - 1;
+        // As many left records lie from `k` on as right records before it.
+        while rbits == 0 {
+            rw -= 1;
+            rbits = flags[rw] & !below(rw);
+        }
+        let top = 63 - rbits.leading_zeros() as usize;
+        rbits &= !(1u64 << top);
+        prims.swap(i, rw * 64 + top);
+    }
+    let (mut lb, mut rb) = (Bounds::EMPTY, Bounds::EMPTY);
+    prims[..k].iter().for_each(|p| lb.grow(p));
+    prims[k..].iter().rev().for_each(|p| rb.grow(p));
+    (k, lb, rb)
+}
+
+/// Partition `prims` so those for which `left` holds come first (Hoare's scans from both
+/// ends), accumulating the bounds of each side as every record is placed. Returns the
+/// count on the left and both bounds.
+pub(super) fn partition_hoare(prims: &mut [PrimRef], left: impl Fn(&PrimRef) -> bool) -> (usize, Bounds, Bounds) {
     let (mut lb, mut rb) = (Bounds::EMPTY, Bounds::EMPTY);
     let (mut i, mut j) = (0, prims.len());
     loop {

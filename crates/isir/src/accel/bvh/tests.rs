@@ -168,3 +168,41 @@ fn bins_of_pairs_are_the_bins_of_one_record_at_a_time() {
         assert_eq!(best_split(&got).map(|s| (s.0, s.1)), best_split(&want).map(|s| (s.0, s.1)));
     }
 }
+
+/// The branch-free partition leaves the records in Hoare's order and returns its bounds
+/// bit for bit, signed zeros included (boxes touching zero on every axis, half of them
+/// written -0.0), whatever the sizes, the share on the left and the runs of one side.
+#[test]
+fn flag_partition_is_hoare_partition_bit_for_bit() {
+    let bits = |b: &Bounds| [b.lo, b.hi, b.clo, b.chi].map(|v| v.to_array().map(f32::to_bits));
+    let mut rng = rand_pcg::Pcg32::seed_from_u64(7);
+    for n in [1, 2, 3, 63, 64, 65, 127, 128, 129, 1000, 4097, 16384] {
+        for share in [0.0, 0.02, 0.5, 0.98, 1.0] {
+            let mut prims: Vec<PrimRef> = random_boxes(n, n as u64)
+                .iter()
+                .enumerate()
+                .map(|(i, b)| {
+                    // Boxes in the positive octant, a third of them from a signed zero
+                    // (-0.0 and +0.0 compare equal): the least corner of a side is a zero,
+                    // its sign that of the zero grown last.
+                    let (lo, hi) = (b.min.abs().min(b.max.abs()), b.min.abs().max(b.max.abs()));
+                    let mut p = PrimRef::new(i as u32, &Aabb::new(lo, hi));
+                    if i % 3 == 0 {
+                        p.min = [if rng.random_bool(0.5) { -0.0 } else { 0.0 }; 3];
+                    }
+                    p
+                })
+                .collect();
+            // Runs of one side as well as coin tosses.
+            let runs = rng.random_bool(0.5);
+            let sides: Vec<bool> = (0..n).map(|i| if runs { (i / 37) % 2 == 0 } else { rng.random_bool(share) }).collect();
+            let left = |p: &PrimRef| sides[p.index as usize];
+            let mut a = prims.clone();
+            let (ka, la, ra) = partition_hoare(&mut a, left);
+            let (kb, lb, rb) = partition_bounds(&mut prims, left);
+            assert_eq!(ka, kb, "n {n}, share {share}");
+            assert!(a.iter().zip(&prims).all(|(x, y)| x.index == y.index), "n {n}, share {share}: another order");
+            assert_eq!((bits(&la), bits(&ra)), (bits(&lb), bits(&rb)), "n {n}, share {share}: other bounds");
+        }
+    }
+}
