@@ -201,10 +201,11 @@ mod tests {
     use super::*;
     use std::io::Write;
 
-    fn tmp(name: &str) -> std::path::PathBuf {
-        let dir = std::env::temp_dir().join(format!("isir-input-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        dir.join(name)
+    /// A fresh directory, removed when the test ends (failing too), and `name` in it.
+    fn tmp(name: &str) -> (tempfile::TempDir, std::path::PathBuf) {
+        let dir = tempfile::Builder::new().prefix("isir-input-").tempdir().unwrap();
+        let path = dir.path().join(name);
+        (dir, path)
     }
 
     fn gz(data: &[u8]) -> Vec<u8> {
@@ -225,7 +226,7 @@ mod tests {
 
     #[test]
     fn a_fifo_is_refused_without_blocking() {
-        let p = tmp("fifo");
+        let (_dir, p) = tmp("fifo");
         let _ = std::fs::remove_file(&p);
         let made = std::process::Command::new("mkfifo").arg(&p).status().expect("mkfifo runs");
         assert!(made.success());
@@ -240,7 +241,7 @@ mod tests {
 
     #[test]
     fn files_over_the_limit_are_refused() {
-        let p = tmp("big.txt");
+        let (_dir, p) = tmp("big.txt");
         std::fs::write(&p, vec![b'x'; 3000]).unwrap();
         assert_eq!(read_file(&p, &ReadLimits::new(3000)).unwrap().len(), 3000);
         let e = read_file(&p, &ReadLimits::new(2048)).unwrap_err().to_string();
@@ -252,7 +253,7 @@ mod tests {
         // 16 MiB of zeros in about 16 KiB: inflating stops just past the 1 MiB limit.
         let bomb = gz(&vec![0u8; 16 << 20]);
         assert!(bomb.len() < 100_000);
-        let p = tmp("bomb.obj.gz");
+        let (_dir, p) = tmp("bomb.obj.gz");
         std::fs::write(&p, &bomb).unwrap();
         let e = read_file(&p, &ReadLimits::new(1 << 20)).unwrap_err().to_string();
         assert!(e.contains("bomb.obj.gz: decompresses to more than the input limit of 1 MiB"), "{e}");
@@ -265,7 +266,7 @@ mod tests {
     fn every_gzip_member_is_read() {
         let mut two = gz(b"first member\n");
         two.extend(gz(b"second member\n"));
-        let p = tmp("two.txt.gz");
+        let (_dir, p) = tmp("two.txt.gz");
         std::fs::write(&p, &two).unwrap();
         assert_eq!(read_file(&p, &ReadLimits::default()).unwrap(), b"first member\nsecond member\n");
         // A damaged or cut stream is an error, not a silently shorter file.

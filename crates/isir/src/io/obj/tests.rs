@@ -2,7 +2,6 @@
 
 use super::*;
 use std::io::Write;
-use std::path::PathBuf;
 
 const TRI: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
 
@@ -23,12 +22,9 @@ fn with_mtl(obj: &str, mtl: &[u8]) -> LoadedMesh {
     parse_obj(Path::new("t.obj"), obj.as_bytes(), |_| Ok(mtl.to_vec())).unwrap()
 }
 
-/// A fresh directory for this test's files.
-fn tmp_dir(test: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("isir-obj-{}-{test}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+/// A fresh directory for this test's files, removed when the test ends (failing too).
+fn tmp_dir(test: &str) -> tempfile::TempDir {
+    tempfile::Builder::new().prefix(&format!("isir-obj-{test}-")).tempdir().unwrap()
 }
 
 fn gz(data: &[u8]) -> Vec<u8> {
@@ -292,7 +288,8 @@ fn missing_material_library_is_a_warning() {
 
 #[test]
 fn unreadable_material_libraries_are_warnings_naming_them_and_why() {
-    let dir = tmp_dir("mtl");
+    let tmp = tmp_dir("mtl");
+    let dir = tmp.path();
     std::fs::create_dir(dir.join("folder.mtl")).unwrap();
     let obj = dir.join("m.obj");
     std::fs::write(&obj, format!("mtllib /dev/zero\nmtllib folder.mtl\nmtllib gone.mtl\n{TRI}")).unwrap();
@@ -307,7 +304,8 @@ fn unreadable_material_libraries_are_warnings_naming_them_and_why() {
 
 #[test]
 fn a_fifo_as_material_library_does_not_block() {
-    let dir = tmp_dir("fifo");
+    let tmp = tmp_dir("fifo");
+    let dir = tmp.path();
     assert!(std::process::Command::new("mkfifo").arg(dir.join("pipe.mtl")).status().expect("mkfifo runs").success());
     let obj = dir.join("m.obj");
     std::fs::write(&obj, format!("mtllib pipe.mtl\n{TRI}")).unwrap();
@@ -320,7 +318,8 @@ fn a_fifo_as_material_library_does_not_block() {
 
 #[test]
 fn gzip_files_are_bounded_and_read_whole() {
-    let dir = tmp_dir("gz");
+    let tmp = tmp_dir("gz");
+    let dir = tmp.path();
     // Two gzip members, as parallel gzip tools write: the triangles of both load.
     let two = dir.join("two.obj.gz");
     std::fs::write(&two, [gz(TRI.as_bytes()), gz(b"v 0 0 1\nv 1 0 1\nv 0 1 1\nf 4 5 6\n")].concat()).unwrap();
