@@ -172,6 +172,12 @@ impl QuadBatch {
     /// has it).
     pub(super) fn shade(&self, material: &Material, ray: &Ray, hit: &Hit) -> [[f32; BATCH]; 3] {
         let mut out = [[0.0; BATCH]; 3];
+        self.shade_into(material, ray, hit, &mut out);
+        out
+    }
+
+    /// [`Self::shade`] into `out` (every lane written).
+    pub(super) fn shade_into(&self, material: &Material, ray: &Ray, hit: &Hit, out: &mut [[f32; BATCH]; 3]) {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
             #[target_feature(enable = "avx2")]
@@ -179,11 +185,10 @@ impl QuadBatch {
                 material.shade_lanes(ray, hit, &b.wi, out);
             }
             // SAFETY: the CPU has AVX2, which is all `shade_avx2` is compiled for.
-            unsafe { shade_avx2(self, material, ray, hit, &mut out) };
-            return out;
+            unsafe { shade_avx2(self, material, ray, hit, out) };
+            return;
         }
-        material.shade_lanes(ray, hit, &self.wi, &mut out);
-        out
+        material.shade_lanes(ray, hit, &self.wi, out);
     }
 
     /// Adds to `sum`, in sample order, `shade · radiance · cos` of the samples among the
