@@ -324,10 +324,8 @@ fn quad_groups(
             let lane_live = live_mask(&batch.live, m);
             counters.shadow += u64::from(lane_live.count_ones());
             live[i / 2] |= lane_live << ((i % 2) * HALF);
-            for j in 0..m {
-                let r = batch.rays.segment(j);
-                both[i / 2].set((i % 2) * HALF + j, r.origin, r.direction, r.t_min, r.t_max);
-            }
+            // All eight lanes at once: those past `m` are not live, so never traced.
+            both[i / 2].copy_lanes((i % 2) * HALF, &batch.rays, HALF);
             batch.shade_into(scene.material(hit), &rays.ray(k), hit, &mut f[i]);
             filled[i] = true;
         }

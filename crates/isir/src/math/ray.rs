@@ -103,6 +103,17 @@ impl RayLanes {
         (self.t_min[k], self.t_max[k]) = (t_min, t_max);
     }
 
+    /// Lanes `at..at + n` become lanes `0..n` of `from` (whole components, not ray by ray).
+    #[inline(always)]
+    pub fn copy_lanes(&mut self, at: usize, from: &RayLanes, n: usize) {
+        for axis in 0..3 {
+            self.o[axis][at..at + n].copy_from_slice(&from.o[axis][..n]);
+            self.d[axis][at..at + n].copy_from_slice(&from.d[axis][..n]);
+        }
+        self.t_min[at..at + n].copy_from_slice(&from.t_min[..n]);
+        self.t_max[at..at + n].copy_from_slice(&from.t_max[..n]);
+    }
+
     /// Lane `k`'s ray with its interval.
     #[inline(always)]
     #[must_use]
