@@ -674,11 +674,20 @@ impl TriangleMesh {
     /// The shading normal at barycentrics `(u, v)` of triangle `prim` (not yet facing the ray).
     #[must_use]
     pub fn shading_normal(&self, prim: u32, u: f32, v: f32) -> Vec3 {
+        self.shading_normal_or(prim, u, v, || self.face_normal(prim))
+    }
+
+    /// [`Self::shading_normal`], with `face` giving the triangle's [`Self::face_normal`]
+    /// when it is needed (the caller may have it already). PERF: a mesh without normals
+    /// (the conference room) took the face normal twice per hit.
+    #[inline]
+    #[must_use]
+    pub fn shading_normal_or(&self, prim: u32, u: f32, v: f32, face: impl FnOnce() -> Vec3) -> Vec3 {
         if self.shading == Shading::Flat || self.normals.is_empty() {
-            return self.face_normal(prim);
+            return face();
         }
         let [a, b, c] = self.triangles[prim as usize];
         let n = (1.0 - u - v) * self.normals[a as usize] + u * self.normals[b as usize] + v * self.normals[c as usize];
-        n.try_normalize().unwrap_or_else(|| self.face_normal(prim))
+        n.try_normalize().unwrap_or_else(face)
     }
 }

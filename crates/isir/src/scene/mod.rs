@@ -170,7 +170,8 @@ impl Scene {
             }
             Geometry::Plane(p) => (p.surface_point(ray, t), p.normal, p.normal, 0),
             Geometry::Mesh(m) => {
-                (m.surface_point(prim, u, v), m.shading_normal(prim, u, v), m.face_normal(prim), m.material_slots[prim as usize] as usize)
+                let face = m.face_normal(prim);
+                (m.surface_point(prim, u, v), m.shading_normal_or(prim, u, v, || face), face, m.material_slots[prim as usize] as usize)
             }
             Geometry::Implicit(s) => {
                 let (p, e) = s.surface_point(ray, t);
