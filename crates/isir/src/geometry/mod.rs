@@ -8,6 +8,7 @@ pub mod implicit;
 mod instance;
 mod plane;
 mod sphere;
+mod triangle_lanes;
 mod triangle_mesh;
 
 pub use crate::accel::MeshHit;
@@ -16,6 +17,7 @@ pub use implicit::{Implicit, Sdf};
 pub use instance::Instance;
 pub use plane::Plane;
 pub use sphere::Sphere;
+pub(crate) use triangle_lanes::TriangleLanes;
 pub use triangle_mesh::{MeshAccel, MeshStats, Shading, TriangleMesh, OVERLAP_WARNING};
 
 /// A closed set of kinds, dispatched with a `match` (no vtables).

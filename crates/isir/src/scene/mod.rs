@@ -162,6 +162,24 @@ impl Scene {
     /// [`Scene::interaction`], inlined into the caller.
     #[inline(always)]
     pub(crate) fn interaction_inline(&self, ray: &Ray, i: usize, t: f32, prim: u32, u: f32, v: f32) -> Hit {
+        self.interaction_given(ray, i, t, prim, u, v, None)
+    }
+
+    /// [`Scene::interaction_inline`], with a mesh triangle's face normal, point and error
+    /// bound given when the caller has computed them (as [`crate::geometry::TriangleLanes`]
+    /// does, the same floats).
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn interaction_given(
+        &self,
+        ray: &Ray,
+        i: usize,
+        t: f32,
+        prim: u32,
+        u: f32,
+        v: f32,
+        given: Option<(Vec3, Vec3, Vec3)>,
+    ) -> Hit {
         let o = &self.objects[i];
         let ((point, point_error), normal, geometric, slot) = match &o.geometry {
             Geometry::Sphere(s) => {
@@ -170,8 +188,11 @@ impl Scene {
             }
             Geometry::Plane(p) => (p.surface_point(ray, t), p.normal, p.normal, 0),
             Geometry::Mesh(m) => {
-                let face = m.face_normal(prim);
-                (m.surface_point(prim, u, v), m.shading_normal_or(prim, u, v, || face), face, m.material_slots[prim as usize] as usize)
+                let (face, point) = match given {
+                    Some((face, p, e)) => (face, (p, e)),
+                    None => (m.face_normal(prim), m.surface_point(prim, u, v)),
+                };
+                (point, m.shading_normal_or(prim, u, v, || face), face, m.material_slots[prim as usize] as usize)
             }
             Geometry::Implicit(s) => {
                 let (p, e) = s.surface_point(ray, t);
