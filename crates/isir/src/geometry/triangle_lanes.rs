@@ -127,7 +127,7 @@ mod tests {
         let mut r = |scale: f32| (rng.next_f32() - 0.5) * scale;
         let mut vertices = Vec::new();
         let mut triangles = Vec::new();
-        for t in 0..(8 * LANES as u32) {
+        for t in 0..(256 * LANES as u32) {
             let scale = [1.0, 1e-3, 1e3, 1e7, 1e12][t as usize % 5];
             let a = Vec3::new(r(scale), r(scale), r(scale));
             let (b, c) = match t % 7 {
