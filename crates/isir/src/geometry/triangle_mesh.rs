@@ -680,7 +680,7 @@ impl TriangleMesh {
     /// [`Self::shading_normal`], with `face` giving the triangle's [`Self::face_normal`]
     /// when it is needed (the caller may have it already). PERF: a mesh without normals
     /// (the conference room) took the face normal twice per hit.
-    #[inline]
+    #[inline(always)]
     #[must_use]
     pub fn shading_normal_or(&self, prim: u32, u: f32, v: f32, face: impl FnOnce() -> Vec3) -> Vec3 {
         if self.shading == Shading::Flat || self.normals.is_empty() {
