@@ -350,6 +350,7 @@ impl ShadowRays {
     /// The two offset origins: on the side of the normal (targets `y` with
     /// `(y - p)·n >= 0`), and on the other side. [`ShadowRays::to`] uses one of them.
     #[must_use]
+    #[inline(always)]
     pub fn both_origins(&self) -> [Vec3; 2] {
         [offset_along(self.p, self.d, self.n), offset_along(self.p, self.d, -self.n)]
     }
