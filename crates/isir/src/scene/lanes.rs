@@ -11,6 +11,21 @@ use super::{Object, Scene, MESH_PACKET_FROM};
 use crate::geometry::{Geometry, Hit, TriangleLanes};
 use crate::math::ray::{lane_mask, lanes_of, RayLanes, LANES};
 
+/// The lanes of `live` whose rays are valid, in both batches. PERF: the lane loops eight
+/// lanes wide where the CPU has AVX2.
+fn valid_masks(rays: [&RayLanes; 2], live: [u32; 2]) -> [u32; 2] {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        #[target_feature(enable = "avx2")]
+        fn avx2(rays: [&RayLanes; 2], live: [u32; 2]) -> [u32; 2] {
+            [live[0] & rays[0].valid_mask(), live[1] & rays[1].valid_mask()]
+        }
+        // SAFETY: the CPU has AVX2, which is all `avx2` is compiled for.
+        return unsafe { avx2(rays, live) };
+    }
+    [live[0] & rays[0].valid_mask(), live[1] & rays[1].valid_mask()]
+}
+
 /// No object: the lane's ray met nothing.
 pub const NO_OBJECT: u32 = u32::MAX;
 
@@ -190,7 +205,7 @@ impl Scene {
     pub fn occluded_lane_pair(&self, rays: [&RayLanes; 2], live: [u32; 2]) -> [u32; 2] {
         if self.top_level.is_none() {
             if let [Object { geometry: Geometry::Mesh(m), .. }] = self.objects.as_slice() {
-                let open = [live[0] & rays[0].valid_mask(), live[1] & rays[1].valid_mask()];
+                let open = valid_masks(rays, live);
                 return m.occluded_lane_pair(rays, open);
             }
         }
