@@ -287,6 +287,9 @@ fn partition_flags(prims: &mut [PrimRef], left: impl Fn(&PrimRef) -> bool) -> (u
     const WORDS: usize = FLAGS_UP_TO / 64;
     let n = prims.len();
     debug_assert!(n <= FLAGS_UP_TO);
+    if n == 0 {
+        return (0, Bounds::EMPTY, Bounds::EMPTY);
+    }
     let mut flags = [0u64; WORDS];
     for (word, chunk) in flags.iter_mut().zip(prims.chunks(64)) {
         let mut bits = 0u64;
