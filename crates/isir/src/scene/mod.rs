@@ -227,6 +227,16 @@ impl Scene {
         }
     }
 
+    /// The mesh of a scene that is exactly one mesh (the conference room), whose lanes
+    /// take the paths made for it.
+    #[inline]
+    pub(crate) fn only_mesh(&self) -> Option<&TriangleMesh> {
+        match self.objects.as_slice() {
+            [Object { geometry: Geometry::Mesh(m), .. }] => Some(m),
+            _ => None,
+        }
+    }
+
     /// True when anything meets the ray in `[t_min, t_max)` (the shadow-ray query).
     #[must_use]
     pub fn occluded(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
