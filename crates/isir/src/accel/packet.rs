@@ -2,12 +2,18 @@
 //! one lane per ray (Wald et al.'s packet traversal, on eight-wide nodes as in Embree's
 //! stream mode). Each node's boxes and each triangle are fetched once for the sixteen.
 //!
-//! Used for coherent rays (camera rays of neighbouring pixels, the shadow rays of one
-//! point). Rays whose direction signs differ within the packet or a watertight BVH fall
-//! back to one ray at a time; on a CPU with AVX2 but not AVX-512 the rays go down the tree
-//! as a stream instead (`accel/wide/stream.rs`). Möller–Trumbore is computed
-//! operation for operation as in [`crate::accel::triangle::moller_trumbore`], so packets
-//! return the same hits as single rays.
+//! Used for the closest hits of coherent rays given as a slice ([`WideBvh::intersect_packet`],
+//! the ray files' packets). Rays whose direction signs differ within the packet or a
+//! watertight BVH fall back to one ray at a time; on a CPU with AVX2 but not AVX-512 the
+//! rays go down the tree as a stream instead (`accel/wide/stream.rs`). Möller–Trumbore is
+//! computed operation for operation as in [`crate::accel::triangle::moller_trumbore`], so
+//! packets return the same hits as single rays.
+//!
+//! Every other group query (any-hit rays, and the renderer's lanes) takes the AVX2 stream
+//! on AVX-512 CPUs too. PERF, on the AVX-512 machine (Xeon, 2 cores), 16 spp: the
+//! conference room's shadow rays as 32-ray streams instead of sixteen-ray packets per
+//! octant, 2.11 -> 1.39 s; tp4-bunny 0.211 -> 0.191 s, the same images. Primary rays from
+//! a ray file stay packets there: 41 Mrays/s against the streams' 29.
 
 #[cfg(target_arch = "x86_64")]
 use crate::accel::wide::stream::{LanePair, LanesUpTo, MaskedLanes};
@@ -18,12 +24,6 @@ use glam::Vec3;
 
 /// Rays per packet.
 pub const PACKET: usize = 16;
-
-/// The fewest shadow rays traced as AVX-512 packets, fewer go one at a time. PERF: sixteen
-/// shadow rays of one point go faster as a packet than one by one (conference room, 16
-/// light samples: 0.85x the time), eight slower (1.07x), on the AVX-512 machine. (AVX2
-/// streams, [`crate::accel::wide::stream`], were not measured there.)
-const AVX512_FROM: usize = 12;
 
 impl WideBvh {
     /// Closest hits of up to [`PACKET`] rays (`out[i]` for `rays[i]`): those of
@@ -38,13 +38,13 @@ impl WideBvh {
         #[cfg(target_arch = "x86_64")]
         if self.level() == SimdLevel::Avx512 && !self.watertight && self.root != crate::accel::wide::EMPTY {
             // SAFETY: the level is only ever Avx512 when the CPU reported AVX-512.
-            if unsafe { self.packet_avx512::<false>(rays, out) } {
+            if unsafe { self.packet_avx512(rays, out) } {
                 return;
             }
         }
         #[cfg(target_arch = "x86_64")]
-        if self.level() == SimdLevel::Avx2 && !self.watertight {
-            // SAFETY: the level is only ever Avx2 when the CPU reported AVX2; not watertight.
+        if self.level() >= SimdLevel::Avx2 && !self.watertight {
+            // SAFETY: the level is only ever Avx2 or Avx512 when the CPU reported AVX2; not watertight.
             unsafe { self.stream_avx2::<false, _>(rays, out) };
             return;
         }
@@ -55,9 +55,8 @@ impl WideBvh {
 
     /// Which of up to [`PACKET`] rays meet a triangle in their interval: bit `i` set when
     /// `rays[i]` is occluded, the answer [`WideBvh::occluded`] gives it. For the shadow
-    /// rays of one point towards an area light: traced together in AVX-512 packets, one
-    /// per octant of their directions, or in an AVX2 stream, each ray retired at its first
-    /// hit.
+    /// rays of one point towards an area light: traced together in an AVX2 stream (on
+    /// AVX-512 CPUs too), each ray retired at its first hit.
     ///
     /// # Panics
     /// If `rays` holds more than [`PACKET`] rays.
@@ -66,41 +65,10 @@ impl WideBvh {
         assert!(rays.len() <= PACKET);
         let single = |r: &RaySegment| self.occluded(&r.ray(), r.t_min, r.t_max);
         #[cfg(target_arch = "x86_64")]
-        if self.level() == SimdLevel::Avx512 && !self.watertight && self.root != crate::accel::wide::EMPTY && rays.len() >= AVX512_FROM {
-            let mut octants = [0u32; 8];
-            for (i, r) in rays.iter().enumerate() {
-                let (_, neg) = crate::accel::wide::slab_inverse(r.direction);
-                octants[usize::from(neg[0]) | usize::from(neg[1]) << 1 | usize::from(neg[2]) << 2] |= 1 << i;
-            }
-            let mut occluded = 0;
-            for lanes in octants.into_iter().filter(|&m| m != 0) {
-                if lanes.is_power_of_two() {
-                    let i = lanes.trailing_zeros() as usize;
-                    occluded |= u32::from(single(&rays[i])) << i;
-                    continue;
-                }
-                let mut group = [rays[0]; PACKET];
-                let mut index = [0usize; PACKET];
-                let mut n = 0;
-                for i in (0..rays.len()).filter(|&i| lanes & (1 << i) != 0) {
-                    (group[n], index[n]) = (rays[i], i);
-                    n += 1;
-                }
-                let mut out = [None; PACKET];
-                // SAFETY: the level is only ever Avx512 when the CPU reported AVX-512.
-                let traced = unsafe { self.packet_avx512::<true>(&group[..n], &mut out) };
-                debug_assert!(traced, "one octant");
-                for k in 0..n {
-                    occluded |= u32::from(out[k].is_some()) << index[k];
-                }
-            }
-            return occluded;
-        }
-        #[cfg(target_arch = "x86_64")]
-        if self.level() == SimdLevel::Avx2 && !self.watertight && rays.len() > 1 {
+        if self.level() >= SimdLevel::Avx2 && !self.watertight && rays.len() > 1 {
             // PERF: a stream of eight shadow rays of one point (conference room, 8 light
             // samples): 0.77x the render time of single rays.
-            // SAFETY: the level is only ever Avx2 when the CPU reported AVX2; not watertight.
+            // SAFETY: the level is only ever Avx2 or Avx512 when the CPU reported AVX2; not watertight.
             return unsafe { self.stream_avx2::<true, _>(rays, &mut []) };
         }
         rays.iter().enumerate().fold(0, |m, (i, r)| m | u32::from(single(r)) << i)
@@ -113,9 +81,9 @@ impl WideBvh {
     pub fn intersect_lanes(&self, rays: &RayLanes, t_max: &[f32; LANES], mask: u32, out: &mut [Option<MeshHit>; LANES]) {
         let mask = mask & (u32::MAX >> (32 - LANES));
         #[cfg(target_arch = "x86_64")]
-        if self.level() == SimdLevel::Avx2 && !self.watertight && mask.count_ones() > 1 {
+        if self.level() >= SimdLevel::Avx2 && !self.watertight && mask.count_ones() > 1 {
             out.fill(None);
-            // SAFETY: the level is only ever Avx2 when the CPU reported AVX2; not watertight.
+            // SAFETY: the level is only ever Avx2 or Avx512 when the CPU reported AVX2; not watertight.
             unsafe { self.stream_avx2::<false, _>(&LanesUpTo(rays, t_max, mask), out) };
             return;
         }
@@ -131,8 +99,8 @@ impl WideBvh {
     pub fn occluded_lanes(&self, rays: &RayLanes, mask: u32) -> u32 {
         let mask = mask & (u32::MAX >> (32 - LANES));
         #[cfg(target_arch = "x86_64")]
-        if self.level() == SimdLevel::Avx2 && !self.watertight && mask.count_ones() > 1 {
-            // SAFETY: the level is only ever Avx2 when the CPU reported AVX2; not watertight.
+        if self.level() >= SimdLevel::Avx2 && !self.watertight && mask.count_ones() > 1 {
+            // SAFETY: the level is only ever Avx2 or Avx512 when the CPU reported AVX2; not watertight.
             return unsafe { self.stream_avx2::<true, _>(&MaskedLanes(rays, mask), &mut []) };
         }
         let mut group = [RaySegment { origin: Vec3::ZERO, t_min: 0.0, direction: Vec3::ZERO, t_max: 0.0 }; PACKET];
@@ -152,20 +120,19 @@ impl WideBvh {
     pub fn occluded_lane_pair(&self, rays: [&RayLanes; 2], mask: [u32; 2]) -> [u32; 2] {
         let mask = mask.map(|m| m & (u32::MAX >> (32 - LANES)));
         #[cfg(target_arch = "x86_64")]
-        if self.level() == SimdLevel::Avx2 && !self.watertight && (mask[0].count_ones() + mask[1].count_ones()) > 1 {
-            // SAFETY: the level is only ever Avx2 when the CPU reported AVX2; not watertight.
+        if self.level() >= SimdLevel::Avx2 && !self.watertight && (mask[0].count_ones() + mask[1].count_ones()) > 1 {
+            // SAFETY: the level is only ever Avx2 or Avx512 when the CPU reported AVX2; not watertight.
             let hit = unsafe { self.stream_avx2::<true, _>(&LanePair(rays, mask), &mut []) };
             return [hit & (u32::MAX >> (32 - LANES)), hit >> LANES];
         }
         [self.occluded_lanes(rays[0], mask[0]), self.occluded_lanes(rays[1], mask[1])]
     }
 
-    /// The AVX-512 packet traversal; false (nothing written) when the rays' direction
-    /// signs differ, which the octant-ordered box test cannot handle. With `ANY`, each
-    /// ray stops at its first hit (which `out` then holds).
+    /// The AVX-512 packet traversal of closest hits; false (nothing written) when the rays'
+    /// direction signs differ, which the octant-ordered box test cannot handle.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
-    unsafe fn packet_avx512<const ANY: bool>(&self, rays: &[RaySegment], out: &mut [Option<MeshHit>]) -> bool {
+    unsafe fn packet_avx512(&self, rays: &[RaySegment], out: &mut [Option<MeshHit>]) -> bool {
         use crate::accel::wide::{leaf_blocks, EMPTY, LEAF, STACK_SIZE, WIDEN};
         use std::arch::x86_64::*;
 
@@ -224,8 +191,6 @@ impl WideBvh {
         let mut sp = 0usize;
         let mut cur = self.root;
         let mut cur_mask = active;
-        // Rays still looking for a hit (all of them unless `ANY`).
-        let mut live = active;
         'walk: loop {
             if cur & LEAF == 0 {
                 // ---- Inner node: eight boxes, each against sixteen rays ----
@@ -350,14 +315,6 @@ impl WideBvh {
                             hu = _mm512_mask_mov_ps(hu, m, u);
                             hv = _mm512_mask_mov_ps(hv, m, v);
                             prim = _mm512_mask_mov_epi32(prim, m, _mm512_set1_epi32(id as i32));
-                            if ANY {
-                                // Any hit will do: these rays are done.
-                                live &= !m;
-                                cur_mask &= !m;
-                                if live == 0 {
-                                    break 'walk;
-                                }
-                            }
                         }
                     }
                 }
@@ -370,7 +327,7 @@ impl WideBvh {
                 sp -= 1;
                 // SAFETY: every entry below the old `sp` was written by a push.
                 let near = nears.get_unchecked(sp).assume_init();
-                let m = _mm512_mask_cmp_ps_mask::<_CMP_LT_OQ>(*masks.get_unchecked(sp) & live, near, t_best);
+                let m = _mm512_mask_cmp_ps_mask::<_CMP_LT_OQ>(*masks.get_unchecked(sp), near, t_best);
                 if m != 0 {
                     cur = *codes.get_unchecked(sp);
                     cur_mask = m;

@@ -114,8 +114,9 @@ impl Tri4 {
     }
 }
 
-/// Which code path traces rays.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// Which code path traces rays. The levels are ordered: each CPU that runs one runs
+/// those before it (an AVX-512 CPU takes the AVX2 streams, `accel/packet.rs`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 pub enum SimdLevel {
     /// Portable scalar code.
     Scalar,
