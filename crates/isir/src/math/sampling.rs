@@ -46,13 +46,38 @@ impl Sampler {
     }
 }
 
+/// `(sin 2πu, cos 2πu)`: the sine and cosine of `u` turns, without a branch or a call,
+/// so that a loop over lanes of it is SIMD code (the library's `sinf`/`cosf` are one call
+/// per lane). Exact range reduction in quarter turns (`4u` minus its nearest integer is
+/// exact in `f32`), then Taylor polynomials on `[-π/4, π/4]` (truncation below 2e-9),
+/// then the quadrant's swap and signs. Within 2.4e-7 of the true values for `u` in
+/// `[0, 1)` (tested), where `2π·u` rounded to `f32` before `sin` was off by up to that
+/// much already; NaN for a NaN or infinite `u`.
+/// PERF: path tracer, Lambert, tp6-matte at 16 spp: `sincosf` was 12% of the render.
+#[inline(always)]
+#[must_use]
+pub fn sin_cos_turns(u: f32) -> (f32, f32) {
+    let t = u * 4.0;
+    let q = t.round_ties_even();
+    let x = (t - q) * std::f32::consts::FRAC_PI_2;
+    let x2 = x * x;
+    let s = x * (1.0 + x2 * (-1.0 / 6.0 + x2 * (1.0 / 120.0 + x2 * (-1.0 / 5040.0 + x2 * (1.0 / 362_880.0)))));
+    let c = 1.0 + x2 * (-0.5 + x2 * (1.0 / 24.0 + x2 * (-1.0 / 720.0 + x2 * (1.0 / 40_320.0 + x2 * (-1.0 / 3_628_800.0)))));
+    // The quadrant, 0 to 3 (exact: `q` is an integer).
+    let k = q - 4.0 * (q * 0.25).floor();
+    let (s, c) = if k == 1.0 || k == 3.0 { (c, s) } else { (s, c) };
+    let sin = if k >= 2.0 { -s } else { s };
+    let cos = if k == 1.0 || k == 2.0 { -c } else { c };
+    (sin, cos)
+}
+
 /// Cosine-distributed direction about `n` (unit), from two uniform numbers
 /// (Malley's method: a uniform disk point lifted to the hemisphere).
 #[must_use]
 pub fn square_to_cosine_hemisphere(n: glam::Vec3, xi: glam::Vec2) -> glam::Vec3 {
     let r = xi.x.sqrt();
-    let phi = 2.0 * std::f32::consts::PI * xi.y;
-    let (x, y) = (r * phi.cos(), r * phi.sin());
+    let (sin, cos) = sin_cos_turns(xi.y);
+    let (x, y) = (r * cos, r * sin);
     let z = (1.0 - xi.x).max(0.0).sqrt();
     let (t, b) = n.any_orthonormal_pair();
     (x * t + y * b + z * n).normalize()
@@ -67,8 +92,8 @@ pub fn square_to_cosine_hemisphere_pdf(n: glam::Vec3, w: glam::Vec3) -> f32 {
 /// [`square_to_cosine_hemisphere`] and [`square_to_cosine_hemisphere_pdf`] for
 /// [`LANES`] normals side by side (`n[axis][k]`, uniform numbers
 /// `xi[k]`): the directions (`wi[axis][k]`) and their pdfs, bit for bit the scalar
-/// functions' (the same operations in the same order; the sines and cosines are the
-/// library's, lane by lane). The other loops run eight lanes wide where the CPU has AVX2.
+/// functions' (the same operations in the same order, [`sin_cos_turns`] included). The
+/// loops run eight lanes wide where the CPU has AVX2.
 #[must_use]
 pub fn cosine_hemisphere_lanes(n: &[[f32; LANES]; 3], xi: &[glam::Vec2; LANES]) -> ([[f32; LANES]; 3], [f32; LANES]) {
     #[cfg(target_arch = "x86_64")]
@@ -86,15 +111,12 @@ pub fn cosine_hemisphere_lanes(n: &[[f32; LANES]; 3], xi: &[glam::Vec2; LANES]) 
 #[inline(always)]
 #[allow(clippy::needless_range_loop)] // one index into many arrays: the loops vectorise
 fn cosine_hemisphere_lanes_portable(n: &[[f32; LANES]; 3], xi: &[glam::Vec2; LANES]) -> ([[f32; LANES]; 3], [f32; LANES]) {
-    let (mut r, mut phi, mut z) = ([0f32; LANES], [0f32; LANES], [0f32; LANES]);
-    for k in 0..LANES {
-        r[k] = xi[k].x.sqrt();
-        phi[k] = 2.0 * std::f32::consts::PI * xi[k].y;
-        z[k] = (1.0 - xi[k].x).max(0.0).sqrt();
-    }
+    let (mut r, mut z) = ([0f32; LANES], [0f32; LANES]);
     let (mut cos, mut sin) = ([0f32; LANES], [0f32; LANES]);
     for k in 0..LANES {
-        (cos[k], sin[k]) = (phi[k].cos(), phi[k].sin());
+        r[k] = xi[k].x.sqrt();
+        (sin[k], cos[k]) = sin_cos_turns(xi[k].y);
+        z[k] = (1.0 - xi[k].x).max(0.0).sqrt();
     }
     let mut wi = [[0f32; LANES]; 3];
     let mut pdf = [0f32; LANES];
@@ -175,6 +197,28 @@ mod tests {
                 assert_eq!(lanes.1[k].to_bits(), square_to_cosine_hemisphere_pdf(n, w).to_bits());
             }
         }
+    }
+
+    /// Against `f64`'s sine and cosine: every 2⁻²⁰ of a turn, the numbers just below 1,
+    /// and the quarter turns exactly (signs and zeros in the right place).
+    #[test]
+    fn sin_cos_turns_is_within_its_bound() {
+        let mut worst = 0f64;
+        let below_one = (1..=64).map(|i| f32::from_bits(1f32.to_bits() - i));
+        for u in (0..1 << 20).map(|i| i as f32 / (1 << 20) as f32).chain(below_one) {
+            let (s, c) = sin_cos_turns(u);
+            let a = std::f64::consts::TAU * f64::from(u);
+            worst = worst.max((f64::from(s) - a.sin()).abs()).max((f64::from(c) - a.cos()).abs());
+        }
+        assert!(worst < 2.4e-7, "worst error {worst}");
+        assert_eq!(sin_cos_turns(0.0), (0.0, 1.0));
+        assert_eq!(sin_cos_turns(0.25), (1.0, 0.0));
+        assert_eq!(sin_cos_turns(0.5), (0.0, -1.0));
+        assert_eq!(sin_cos_turns(0.75), (-1.0, 0.0));
+        assert_eq!(sin_cos_turns(-0.25), (-1.0, 0.0));
+        assert_eq!(sin_cos_turns(1e9), (0.0, 1.0));
+        let nan = |(s, c): (f32, f32)| s.is_nan() && c.is_nan();
+        assert!(nan(sin_cos_turns(f32::NAN)) && nan(sin_cos_turns(f32::INFINITY)));
     }
 
     #[test]
