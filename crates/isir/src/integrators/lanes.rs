@@ -13,7 +13,7 @@
 
 use super::direct::quad_light;
 use super::path::{defers_shadow, light_samplers, DeferredShadow, Path};
-use super::shadow::{live_mask, LightLanes, QuadBatch, BATCH, BATCH_FROM};
+use super::shadow::{live_mask, LambertLanes, LightLanes, QuadBatch, BATCH, BATCH_FROM};
 use super::{whitted, Integrator, RayCounters};
 use crate::geometry::Hit;
 use crate::lights::{Light, LightSampler};
@@ -365,6 +365,19 @@ fn quad_nee_lanes(
     counters: &mut RayCounters,
 ) {
     let nee = nee_lanes(scene, hits, going);
+    // The lanes whose material is a Lambert lobe: their samples' values as SIMD loops
+    // (`LightLanes::lambert_values`), the others' lane by lane.
+    let mut lobe = LambertLanes { normal: [[0.0; BATCH]; 3], wo: [[0.0; BATCH]; 3], albedo: [[0.0; BATCH]; 3] };
+    let mut lambert = 0u32;
+    for k in lanes_of(nee) {
+        let Some(hit) = &hits[k] else { unreachable!("a lane with light has a hit") };
+        if let Some(c) = scene.material(hit).lambert_albedo() {
+            for axis in 0..3 {
+                (lobe.normal[axis][k], lobe.wo[axis][k], lobe.albedo[axis][k]) = (hit.normal[axis], wo[k][axis], c[axis]);
+            }
+            lambert |= 1 << k;
+        }
+    }
     let mut acc = [Color::ZERO; LANES];
     for _ in 0..n {
         let mut xi = [Vec2::ZERO; BATCH];
@@ -372,9 +385,14 @@ fn quad_nee_lanes(
             xi[k] = samplers[k].next_2d();
         }
         let batch = LightLanes::new(light, hits, &xi);
+        let (lobe_traced, lobe_value) = if lambert != 0 { batch.lambert_values(&lobe, n) } else { ([false; BATCH], [[0.0; BATCH]; 3]) };
         let mut f = [Color::ZERO; LANES];
         let mut traced = 0u32;
         for k in lanes_of(nee) {
+            if lambert & (1 << k) != 0 {
+                traced |= u32::from(lobe_traced[k]) << k;
+                continue;
+            }
             let Some(hit) = &hits[k] else { unreachable!("a lane with light has a hit") };
             if let Some(fk) = Path::light_sample_f(scene, hit, wo[k], &batch.sample(k)).filter(|_| batch.has_ray[k]) {
                 f[k] = fk;
@@ -384,6 +402,10 @@ fn quad_nee_lanes(
         counters.shadow += u64::from(traced.count_ones());
         let blocked = if traced == 0 { 0 } else { scene.occluded_lanes(&batch.rays, traced) };
         for k in lanes_of(traced & !blocked) {
+            if lambert & (1 << k) != 0 {
+                acc[k] += Vec3::new(lobe_value[0][k], lobe_value[1][k], lobe_value[2][k]);
+                continue;
+            }
             let Some(hit) = &hits[k] else { unreachable!("a traced lane has a hit") };
             acc[k] += Path::quad_sample_value(scene, hit, wo[k], &batch.sample(k), f[k], n);
         }

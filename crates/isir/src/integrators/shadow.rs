@@ -228,6 +228,14 @@ fn lane_sample(
     LightSample { direction: at(wi), distance: distance[j], point: at(point), radiance: at(radiance), pdf: pdf[j] }
 }
 
+/// Hits with a Lambert lobe, in lanes, for [`LightLanes::lambert_values`]: shading
+/// normals, `wo` and albedos (`[axis][lane]`).
+pub(super) struct LambertLanes {
+    pub(super) normal: [[f32; BATCH]; 3],
+    pub(super) wo: [[f32; BATCH]; 3],
+    pub(super) albedo: [[f32; BATCH]; 3],
+}
+
 /// The lanes among the first `count` whose flag in `live` is set, as a mask (a batch's
 /// live samples).
 pub(super) fn live_mask(live: &[bool; BATCH], count: usize) -> u32 {
@@ -392,6 +400,77 @@ impl LightLanes {
     /// The sample of lane `j`, as [`LightSampler::sample`] returns it.
     pub(super) fn sample(&self, j: usize) -> LightSample {
         lane_sample(j, &self.wi, &self.distance, &self.point, &self.radiance, &self.pdf)
+    }
+
+    /// A quad light's sample (one of `n` per vertex) in every lane at once, for hits whose
+    /// material is a Lambert lobe ([`crate::materials::Material::lambert_albedo`]): lane
+    /// `j`'s shading normal, `wo` and albedo in `lobe.normal`, `lobe.wo`, `lobe.albedo`.
+    /// Per lane, whether the sample is worth its shadow ray (what
+    /// [`super::path::Path::light_sample_f`] and `has_ray` say together) and what it brings
+    /// when unoccluded ([`super::path::Path::quad_sample_value`]): the operations of
+    /// `Material::eval`, `Material::pdf`, the power heuristic and the sample's value in
+    /// their order, so the same floats, as SIMD loops (AVX2 where the CPU has it).
+    /// PERF: lane by lane, each lane's chain of dot products, comparisons and the
+    /// heuristic's division ran one after another.
+    pub(super) fn lambert_values(&self, lobe: &LambertLanes, n: u32) -> ([bool; BATCH], [[f32; BATCH]; 3]) {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            #[target_feature(enable = "avx2")]
+            fn avx2(b: &LightLanes, lobe: &LambertLanes, n: u32) -> ([bool; BATCH], [[f32; BATCH]; 3]) {
+                b.lambert_values_portable(lobe, n)
+            }
+            // SAFETY: the CPU has AVX2, which is all `avx2` is compiled for.
+            return unsafe { avx2(self, lobe, n) };
+        }
+        self.lambert_values_portable(lobe, n)
+    }
+
+    #[inline(always)]
+    #[allow(clippy::needless_range_loop)] // one index into many arrays: the loops vectorise
+    fn lambert_values_portable(&self, lobe: &LambertLanes, n: u32) -> ([bool; BATCH], [[f32; BATCH]; 3]) {
+        let (nm, wo, c) = (&lobe.normal, &lobe.wo, &lobe.albedo);
+        let (wi, rad) = (&self.wi, &self.radiance);
+        let mut traced = [false; BATCH];
+        let mut value = [[0f32; BATCH]; 3];
+        let nf = n as f32;
+        for j in 0..BATCH {
+            // `Vec3::dot`, left to right.
+            let nwo = nm[0][j] * wo[0][j] + nm[1][j] * wo[1][j] + nm[2][j] * wo[2][j];
+            let nwi = nm[0][j] * wi[0][j] + nm[1][j] * wi[1][j] + nm[2][j] * wi[2][j];
+            // `traced_f`: some radiance, a valid pdf, `eval` (Lambert: albedo / π where
+            // both directions are above the surface) not zero.
+            let some_radiance = !((rad[0][j] == 0.0) & (rad[1][j] == 0.0) & (rad[2][j] == 0.0));
+            let pdf = self.pdf[j];
+            let valid_pdf = !(pdf.is_nan() | (pdf <= 0.0));
+            let above = (nwo > 0.0) & (nwi > 0.0);
+            let mut f = [0f32; 3];
+            for k in 0..3 {
+                f[k] = if above { c[k][j] * std::f32::consts::FRAC_1_PI } else { 0.0 };
+            }
+            let some_f = !((f[0] == 0.0) & (f[1] == 0.0) & (f[2] == 0.0));
+            traced[j] = some_radiance & valid_pdf & some_f & self.has_ray[j];
+            // `Material::pdf` of the cosine lobe (no glossy lobe: `p` is 0).
+            let (p, glossy) = (0.0f32, 0.0f32);
+            let cos_pdf = nwi.max(0.0) * std::f32::consts::FRAC_1_PI;
+            let below = (nwo <= 0.0) | (nwi <= 0.0);
+            let m_pdf = if below { 0.0 } else { (1.0 - p) * cos_pdf + p * glossy };
+            // `power_heuristic(n, pdf, 1, m_pdf)`.
+            let (a, b) = (nf * pdf, 1.0 * m_pdf);
+            let (a2, b2) = (a * a, b * b);
+            let w = if a.is_infinite() {
+                1.0
+            } else if a2 + b2 > 0.0 {
+                a2 / (a2 + b2)
+            } else {
+                0.0
+            };
+            // `unoccluded`: f · L · |wi · n| · w.
+            let cos = (wi[0][j] * nm[0][j] + wi[1][j] * nm[1][j] + wi[2][j] * nm[2][j]).abs();
+            for k in 0..3 {
+                value[k][j] = f[k] * rad[k][j] * cos * w;
+            }
+        }
+        (traced, value)
     }
 
     /// The shadow ray of lane `j` with its interval, as [`ShadowRays::to`] gives it.

@@ -238,6 +238,17 @@ impl Material {
         }
     }
 
+    /// The albedo of a material whose BRDF is Lambert's `albedo / π` and whose
+    /// [`Material::pdf`] is the cosine lobe's (the course's colours, Lambert's), for the
+    /// path tracer's next-event estimation in lanes; `None` for the others.
+    #[must_use]
+    pub fn lambert_albedo(&self) -> Option<Color> {
+        match *self {
+            Material::Color(c) | Material::Lambert(c) => Some(c),
+            _ => None,
+        }
+    }
+
     /// True when every lobe is a delta (mirror, glass): `eval` and `pdf` are zero and only
     /// `sample` finds the light.
     #[must_use]
