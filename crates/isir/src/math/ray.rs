@@ -179,7 +179,19 @@ pub fn lanes_of(mask: u32) -> impl Iterator<Item = usize> {
 #[inline]
 #[must_use]
 pub fn lane_mask(hit: &[bool; LANES]) -> u32 {
-    hit.iter().enumerate().fold(0, |m, (k, &h)| m | u32::from(h) << k)
+    const { assert!(LANES == 16) };
+    // Eight flags (bytes of 0 or 1) at a time into eight bits: the product puts byte `i`'s
+    // bit at bit `56 + i`, every term on its own bit, so nothing carries.
+    // PERF: a fold of shifts, sixteen dependent ors, was 10% of `Scene::occluded_lanes`
+    // on tp6-glass-quad.
+    let gather = |b: &[bool]| {
+        let mut x = 0u64;
+        for (i, &h) in b.iter().enumerate() {
+            x |= u64::from(h) << (8 * i);
+        }
+        (x.wrapping_mul(0x0102_0408_1020_4080) >> 56) as u32
+    };
+    gather(&hit[..8]) | gather(&hit[8..]) << 8
 }
 
 /// `γ(n) = n·u / (1 - n·u)` with `u` half an ULP of 1: a bound on the relative rounding
@@ -458,6 +470,15 @@ pub(crate) fn check_closest_lanes(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Every one of the 65536 sets of flags gives its own mask.
+    #[test]
+    fn lane_mask_sets_the_bit_of_each_flag() {
+        for mask in 0..1u32 << LANES {
+            let flags: [bool; LANES] = std::array::from_fn(|k| mask & (1 << k) != 0);
+            assert_eq!(lane_mask(&flags), mask);
+        }
+    }
 
     #[test]
     fn a_point_known_exactly_still_moves_off_its_surface() {
