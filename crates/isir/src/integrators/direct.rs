@@ -108,9 +108,7 @@ pub(super) fn quad_light(
     let mut xi = [Vec2::ZERO; BATCH];
     for first in (0..n).step_by(BATCH) {
         let count = (n - first).min(BATCH as u32) as usize;
-        for x in &mut xi[..count] {
-            *x = sampler.next_2d();
-        }
+        sampler.fill_2d(&mut xi[..count]);
         let batch = QuadBatch::new(light_sampler, shadow_rays, hit.normal, &xi, count);
         let live = live_mask(&batch.live, count);
         counters.shadow += u64::from(live.count_ones());

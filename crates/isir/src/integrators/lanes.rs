@@ -317,9 +317,7 @@ fn quad_groups(
         for (i, k) in (first..(first + 4).min(n)).enumerate() {
             let (Some(hit), Some(sr)) = (&hits[k], &shadow_rays[k]) else { continue };
             let mut xi = [Vec2::ZERO; BATCH];
-            for x in &mut xi[..m] {
-                *x = samplers[k].next_2d();
-            }
+            samplers[k].fill_2d(&mut xi[..m]);
             let batch = &mut batches[i];
             batch.fill(light_sampler, sr, hit.normal, &xi, m);
             let lane_live = live_mask(&batch.live, m);

@@ -374,9 +374,7 @@ fn next_event(
             let mut xi = [Vec2::ZERO; BATCH];
             for first in (0..n).step_by(BATCH) {
                 let count = (n - first).min(BATCH as u32) as usize;
-                for x in &mut xi[..count] {
-                    *x = sampler.next_2d();
-                }
+                sampler.fill_2d(&mut xi[..count]);
                 let batch = QuadBatch::new(light_sampler, &shadow_rays, hit.normal, &xi, count);
                 // The samples `visit` would trace, their shadow rays traced as one packet,
                 // then summed in order as `visit` sums them.
