@@ -464,8 +464,9 @@ impl LightLanes {
             } else {
                 0.0
             };
-            // `unoccluded`: f · L · |wi · n| · w.
-            let cos = (wi[0][j] * nm[0][j] + wi[1][j] * nm[1][j] + wi[2][j] * nm[2][j]).abs();
+            // `unoccluded`: f · L · |wi · n| · w (`wi · n` is `nwi`, bit for bit: the same
+            // products, commuted, summed in the same order).
+            let cos = nwi.abs();
             for k in 0..3 {
                 value[k][j] = f[k] * rad[k][j] * cos * w;
             }
