@@ -50,9 +50,7 @@ impl Sampler {
     /// `rand_pcg`'s `from_state_incr`: away from the initial value by one step.
     #[inline]
     fn from_state_incr(state: u64, inc: u64) -> Self {
-        let mut s = Sampler { state: state.wrapping_add(inc), inc };
-        s.state = s.state.wrapping_mul(MUL).wrapping_add(s.inc);
-        s
+        Sampler { state: step(state.wrapping_add(inc), inc), inc }
     }
 
     /// A generator from a plain seed (tools and tests): `Pcg32::seed_from_u64(seed)`.
@@ -62,7 +60,7 @@ impl Sampler {
         // seed, read as two little-endian `u64`s (state, increment).
         let mut state = seed;
         let mut word = || {
-            state = state.wrapping_mul(MUL).wrapping_add(11_634_580_027_462_260_723);
+            state = step(state, 11_634_580_027_462_260_723);
             u64::from(output(state))
         };
         let (a, b, c, d) = (word(), word(), word(), word());
@@ -73,7 +71,7 @@ impl Sampler {
     #[inline]
     pub fn next_f32(&mut self) -> f32 {
         let s = self.state;
-        self.state = s.wrapping_mul(MUL).wrapping_add(self.inc);
+        self.state = step(s, self.inc);
         unit(output(s))
     }
 
@@ -106,6 +104,12 @@ impl Sampler {
             self.state = st[0];
         }
     }
+}
+
+/// One step of PCG's LCG: `s ↦ MUL·s + inc` (mod 2⁶⁴).
+#[inline(always)]
+fn step(s: u64, inc: u64) -> u64 {
+    s.wrapping_mul(MUL).wrapping_add(inc)
 }
 
 /// PCG's XSH RR output of the state `s`.
