@@ -1,7 +1,7 @@
 //! The course's direct lighting: for each light, the average over its samples of
 //! `shade · radiance · cos`, a sample counting only when its shadow ray reaches the light.
 
-use super::shadow::{live_mask, QuadBatch, BATCH, BATCH_FROM};
+use super::shadow::{live_mask, QuadScratch, BATCH, BATCH_FROM};
 use super::RayCounters;
 use crate::geometry::Hit;
 use crate::lights::LightSampler;
@@ -46,7 +46,10 @@ pub(super) fn direct_lighting(
         let light_sampler = light.sampler();
         let n = if light.is_surface() { light_samples.max(1) } else { 1 };
         li += match light_sampler {
-            LightSampler::Quad { .. } => quad_light(scene, ray, hit, material, &light_sampler, &mut shadow_rays, n, sampler, counters),
+            LightSampler::Quad { .. } => {
+                let mut scratch = QuadScratch::EMPTY;
+                quad_light(scene, ray, hit, material, &light_sampler, &mut shadow_rays, n, sampler, counters, &mut scratch)
+            }
             _ => one_light(scene, ray, hit, material, &light_sampler, &mut shadow_rays, n, sampler, counters),
         };
     }
@@ -87,7 +90,9 @@ pub(super) fn one_light(
 /// ([`QuadBatch`]), then traced and summed in order (the same sum as one sample at a time);
 /// fewer than [`BATCH_FROM`] samples one at a time ([`one_light`]).
 /// PERF: out of line, so that point lights keep a small `direct_lighting` (inlined, it made
-/// point-light scenes 20% slower).
+/// point-light scenes 20% slower). `scratch` is the batch's memory, reused from call to
+/// call by the caller (made and zeroed per batch, then copied out of `QuadBatch::new`, it
+/// was 8% of tp6-matte-quad's Whitted render).
 #[inline(never)]
 #[allow(clippy::too_many_arguments)]
 pub(super) fn quad_light(
@@ -100,6 +105,7 @@ pub(super) fn quad_light(
     n: u32,
     sampler: &mut Sampler,
     counters: &mut RayCounters,
+    scratch: &mut QuadScratch,
 ) -> Color {
     if n < BATCH_FROM {
         return one_light(scene, ray, hit, material, light_sampler, shadow_rays, n, sampler, counters);
@@ -109,14 +115,16 @@ pub(super) fn quad_light(
     for first in (0..n).step_by(BATCH) {
         let count = (n - first).min(BATCH as u32) as usize;
         sampler.fill_2d(&mut xi[..count]);
-        let batch = QuadBatch::new(light_sampler, shadow_rays, hit.normal, &xi, count);
+        let QuadScratch { batch, f } = scratch;
+        // Lanes past `count` may hold an earlier batch's samples: never live, never summed.
+        batch.fill(light_sampler, shadow_rays, hit.normal, &xi, count);
         let live = live_mask(&batch.live, count);
         counters.shadow += u64::from(live.count_ones());
         // All the hit's shadow rays at once (`Scene::occluded_lanes` decides how).
         let blocked = scene.occluded_lanes(&batch.rays, live);
         // `material.shade(ray, hit, &batch.sample(j))` of every sample, computed together.
-        let f = batch.shade(material, ray, hit);
-        batch.add_seen(&f, live & !blocked, count, &mut sum);
+        batch.shade_into(material, ray, hit, f);
+        batch.add_seen(f, live & !blocked, count, &mut sum);
     }
     sum / n as f32
 }

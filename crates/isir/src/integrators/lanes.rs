@@ -13,7 +13,7 @@
 
 use super::direct::quad_light;
 use super::path::{defers_shadow, light_samplers, DeferredShadow, Path};
-use super::shadow::{live_mask, LambertLanes, LightLanes, QuadBatch, BATCH, BATCH_FROM};
+use super::shadow::{live_mask, LambertLanes, LightLanes, QuadBatch, QuadScratch, BATCH, BATCH_FROM};
 use super::{whitted, Integrator, RayCounters};
 use crate::geometry::Hit;
 use crate::lights::{Light, LightSampler};
@@ -244,10 +244,12 @@ fn direct_lanes(
                 quad_groups(scene, rays, hits, &light_sampler, &shadow_rays, m as usize, samplers, counters, &mut li);
                 continue;
             }
+            let mut scratch = QuadScratch::EMPTY;
             for k in 0..n {
                 if let (Some(hit), Some(sr)) = (&hits[k], &mut shadow_rays[k]) {
                     let material = scene.material(hit);
-                    li[k] += quad_light(scene, &rays.ray(k), hit, material, &light_sampler, sr, m, &mut samplers[k], counters);
+                    let sampler = &mut samplers[k];
+                    li[k] += quad_light(scene, &rays.ray(k), hit, material, &light_sampler, sr, m, sampler, counters, &mut scratch);
                 }
             }
             continue;

@@ -42,6 +42,18 @@ pub(super) struct QuadBatch {
     pub(super) has_ray: [bool; BATCH],
 }
 
+/// The memory of [`quad_light`](super::direct::quad_light)'s batches: a batch and its
+/// samples' shading values, reused from batch to batch and from hit to hit.
+pub(super) struct QuadScratch {
+    pub(super) batch: QuadBatch,
+    pub(super) f: [[f32; BATCH]; 3],
+}
+
+impl QuadScratch {
+    /// No sample yet.
+    pub(super) const EMPTY: QuadScratch = QuadScratch { batch: QuadBatch::EMPTY, f: [[0.0; BATCH]; 3] };
+}
+
 impl QuadBatch {
     /// Samples `xi[..n]` of the quad light `light` seen from the hit whose shading normal is
     /// `normal` and whose shadow rays leave as `rays` says.
@@ -170,6 +182,7 @@ impl QuadBatch {
     /// `material.shade(ray, hit, &self.sample(j))` for every sample `j` (`[axis][j]`), the
     /// same floats, computed together ([`Material::shade_lanes`], for AVX2 where the CPU
     /// has it).
+    #[cfg(test)]
     pub(super) fn shade(&self, material: &Material, ray: &Ray, hit: &Hit) -> [[f32; BATCH]; 3] {
         let mut out = [[0.0; BATCH]; 3];
         self.shade_into(material, ray, hit, &mut out);
