@@ -208,10 +208,17 @@ impl QuadBatch {
     /// first `count` whose bits are set in `seen` (those whose shadow ray reached the
     /// light), `f` being [`QuadBatch::shade`]'s values.
     #[inline(always)]
+    #[allow(clippy::needless_range_loop)] // `j` indexes five arrays and the mask
     pub(super) fn add_seen(&self, f: &[[f32; BATCH]; 3], seen: u32, count: usize, sum: &mut Color) {
-        for j in (0..count).filter(|&j| seen & (1 << j) != 0) {
-            *sum += Color::new(f[0][j], f[1][j], f[2][j]) * self.radiance(j) * self.cos[j];
+        // A select instead of a branch per sample (whether a penumbra's rays reach the
+        // light is not predictable): `s + 0` is `s` bit for bit, as `s` is never `-0`
+        // (it starts at `+0`, and a sum that cancels rounds to `+0`).
+        let mut s = *sum;
+        for j in 0..count {
+            let term = Color::new(f[0][j], f[1][j], f[2][j]) * self.radiance(j) * self.cos[j];
+            s += if seen & (1 << j) != 0 { term } else { Color::ZERO };
         }
+        *sum = s;
     }
 
     /// The radiance of sample `j`.
