@@ -206,7 +206,7 @@ impl QuadBatch {
 
     /// Adds to `sum`, in sample order, `shade · radiance · cos` of the samples among the
     /// first `count` whose bits are set in `seen` (those whose shadow ray reached the
-    /// light), `f` being [`QuadBatch::shade`]'s values.
+    /// light), `f` being [`QuadBatch::shade_into`]'s values.
     #[inline(always)]
     #[allow(clippy::needless_range_loop)] // `j` indexes five arrays and the mask
     pub(super) fn add_seen(&self, f: &[[f32; BATCH]; 3], seen: u32, count: usize, sum: &mut Color) {

@@ -82,15 +82,16 @@ impl Sampler {
     }
 
     /// `out.len()` pairs of numbers, those of as many calls to [`Sampler::next_2d`], and
-    /// the generator left where those calls leave it. The states come from four chains
-    /// of four steps each (`s ↦ MUL⁴·s + inc·SUM₄`), so four multiplies are in flight
-    /// instead of one.
+    /// the generator left where those calls leave it. The states come from several
+    /// chains (`s ↦ MUL⁴·s + inc·SUM₄` on four scalar chains; on eight in one AVX-512
+    /// register from four pairs on, where the CPU has AVX-512 DQ and VL), so several
+    /// multiplies are in flight instead of one.
     #[inline]
     pub fn fill_2d(&mut self, out: &mut [glam::Vec2]) {
         #[cfg(target_arch = "x86_64")]
-        if out.len() >= 4 && std::arch::is_x86_feature_detected!("avx512dq") {
-            // SAFETY: the CPU has AVX-512 DQ (and so F), which is all `fill_2d_avx512`
-            // is compiled for.
+        if out.len() >= 4 && std::arch::is_x86_feature_detected!("avx512dq") && std::arch::is_x86_feature_detected!("avx512vl") {
+            // SAFETY: the CPU has AVX-512 DQ and VL (and so F), which is all
+            // `fill_2d_avx512` is compiled for.
             unsafe { self.fill_2d_avx512(out) };
             return;
         }
@@ -349,8 +350,8 @@ mod tests {
         let mut fills: Vec<(&str, fn(&mut Sampler, &mut [glam::Vec2]))> =
             vec![("fill_2d", Sampler::fill_2d), ("portable", Sampler::fill_2d_portable)];
         #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx512dq") {
-            // SAFETY: the CPU has AVX-512 DQ, which is all `fill_2d_avx512` needs.
+        if std::arch::is_x86_feature_detected!("avx512dq") && std::arch::is_x86_feature_detected!("avx512vl") {
+            // SAFETY: the CPU has AVX-512 DQ and VL, which is all `fill_2d_avx512` needs.
             fills.push(("avx512", |s, out| unsafe { s.fill_2d_avx512(out) }));
         }
         for (name, fill) in fills {
