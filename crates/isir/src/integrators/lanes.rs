@@ -266,8 +266,10 @@ fn direct_lanes(
         let mut sum = [Color::ZERO; LANES];
         for k in (0..n).filter(|&k| live & !blocked & (1 << k) != 0) {
             let Some(hit) = &hits[k] else { unreachable!("a live lane has a hit") };
-            let ls = batch.sample(k);
-            sum[k] += scene.material(hit).shade(&rays.ray(k), hit, &ls) * ls.radiance * batch.cos[k];
+            // PERF: the sample and the ray built only for the materials that use them.
+            let material = scene.material(hit);
+            let f = material.shade_any_direction(hit).unwrap_or_else(|| material.shade(&rays.ray(k), hit, &batch.sample(k)));
+            sum[k] += f * batch.radiance(k) * batch.cos[k];
         }
         for k in 0..n {
             li[k] += sum[k] / 1.0;

@@ -423,6 +423,12 @@ impl LightLanes {
         b
     }
 
+    /// The radiance of sample `j` (that of [`Self::sample`]).
+    #[inline]
+    pub(super) fn radiance(&self, j: usize) -> Color {
+        Color::new(self.radiance[0][j], self.radiance[1][j], self.radiance[2][j])
+    }
+
     /// The sample of lane `j`, as [`LightSampler::sample`] returns it.
     pub(super) fn sample(&self, j: usize) -> LightSample {
         lane_sample(j, &self.wi, &self.distance, &self.point, &self.radiance, &self.pdf)
@@ -600,7 +606,8 @@ mod tests {
     }
 
     /// A batch's shading is `Material::shade` of each sample, bit for bit, for every kind
-    /// of material, on the AVX2 path (where this CPU has it) and the portable one: samples
+    /// of material, on the AVX2 path (where this CPU has it) and the portable one, and so
+    /// is `Material::shade_any_direction` where it gives a value: samples
     /// in front of and behind the surface, at grazing angles, straight above it, towards
     /// the back of the light, and rays of any length.
     #[test]
@@ -651,11 +658,17 @@ mod tests {
             let fast = batch.shade(material, &ray, &hit);
             let mut portable = [[0.0; BATCH]; 3];
             material.shade_lanes(&ray, &hit, &batch.wi, &mut portable);
+            // The materials whose value needs no direction, and only those, give it alone.
+            let any = material.shade_any_direction(&hit);
+            assert_eq!(any.is_some(), round % materials.len() < 2 || *material == Material::Mirror, "{material:?}");
             for j in 0..BATCH {
                 let expected = material.shade(&ray, &hit, &batch.sample(j));
                 for (k, e) in expected.to_array().into_iter().enumerate() {
                     assert_eq!(fast[k][j].to_bits(), e.to_bits(), "{material:?} {j}");
                     assert_eq!(portable[k][j].to_bits(), e.to_bits(), "{material:?} {j}");
+                }
+                if let Some(c) = any {
+                    assert_eq!(c.to_array().map(f32::to_bits), expected.to_array().map(f32::to_bits), "{material:?} {j}");
                 }
                 if expected == Vec3::ZERO {
                     unlit += 1;

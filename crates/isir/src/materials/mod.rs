@@ -158,6 +158,21 @@ impl Material {
         }
     }
 
+    /// [`Material::shade`]'s value where it is the same for every light direction (the
+    /// course's colours, textures, Lambert, and mirror and glass, which shade black):
+    /// `None` for the materials that need the direction.
+    #[inline]
+    #[must_use]
+    pub fn shade_any_direction(&self, hit: &Hit) -> Option<Color> {
+        match self {
+            Material::Color(c) => Some(*c),
+            Material::Textured { .. } => Some(self.color_at(hit)),
+            Material::Lambert(kd) => Some(*kd * FRAC_1_PI),
+            Material::Mirror | Material::Transparent { .. } => Some(BLACK),
+            _ => None,
+        }
+    }
+
     /// [`Material::shade`] for `N` light samples at once, by their directions
     /// (`wi[axis][j]`), into `out[axis][j]`: the same floats. Oren–Nayar in straight-line
     /// loops the compiler vectorises (for the instruction set of the caller), materials
