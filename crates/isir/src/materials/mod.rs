@@ -149,13 +149,7 @@ impl Material {
     /// [`Material::shade`] for light arriving along `wi` (all it needs of the sample).
     #[inline]
     fn shade_from(&self, ray: &Ray, hit: &Hit, wi: Vec3) -> Color {
-        match self {
-            Material::Color(c) => *c,
-            Material::Textured { .. } => self.color_at(hit),
-            Material::Lambert(kd) => *kd * FRAC_1_PI,
-            Material::Mirror | Material::Transparent { .. } => BLACK,
-            _ => self.brdf(hit.normal, -ray.direction.normalize_or_zero(), wi),
-        }
+        self.shade_any_direction(hit).unwrap_or_else(|| self.brdf(hit.normal, -ray.direction.normalize_or_zero(), wi))
     }
 
     /// [`Material::shade`]'s value where it is the same for every light direction (the
@@ -185,15 +179,16 @@ impl Material {
                 oren_nayar_lanes(kd, sigma, hit.normal, -ray.direction.normalize_or_zero(), wi, out);
                 return;
             }
-            Material::Color(_) | Material::Textured { .. } | Material::Lambert(_) | Material::Mirror | Material::Transparent { .. } => {
-                // The same for every direction.
-                let c = self.shade_from(ray, hit, Vec3::Z).to_array();
-                for k in 0..3 {
-                    out[k] = [c[k]; N];
+            _ => {
+                if let Some(c) = self.shade_any_direction(hit) {
+                    // The same for every direction.
+                    let c = c.to_array();
+                    for k in 0..3 {
+                        out[k] = [c[k]; N];
+                    }
+                    return;
                 }
-                return;
             }
-            Material::Plastic { .. } | Material::CookTorrance { .. } => {}
         }
         for j in 0..N {
             let c = self.shade_from(ray, hit, Vec3::new(wi[0][j], wi[1][j], wi[2][j]));
