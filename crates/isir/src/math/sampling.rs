@@ -89,13 +89,20 @@ impl Sampler {
     #[inline]
     pub fn fill_2d(&mut self, out: &mut [glam::Vec2]) {
         #[cfg(target_arch = "x86_64")]
-        if out.len() >= 4 && std::arch::is_x86_feature_detected!("avx512dq") && std::arch::is_x86_feature_detected!("avx512vl") {
+        if out.len() >= 4 && Self::has_avx512_fill() {
             // SAFETY: the CPU has AVX-512 DQ and VL (and so F), which is all
             // `fill_2d_avx512` is compiled for.
             unsafe { self.fill_2d_avx512(out) };
             return;
         }
         self.fill_2d_portable(out);
+    }
+
+    /// Whether this CPU runs [`Sampler::fill_2d_avx512`] (AVX-512 DQ and VL).
+    #[cfg(target_arch = "x86_64")]
+    #[inline]
+    fn has_avx512_fill() -> bool {
+        std::arch::is_x86_feature_detected!("avx512dq") && std::arch::is_x86_feature_detected!("avx512vl")
     }
 
     /// [`Sampler::fill_2d`] on eight chains of eight steps (`s ↦ MUL⁸·s + inc·SUM₈`), the
@@ -343,14 +350,13 @@ mod tests {
 
     /// The numbers of `rand_pcg`'s PCG32 and `rand`'s `f32`, from both constructors, one
     /// at a time and by `fill_2d` (every length up to 33 pairs, then on one at a time):
-    /// the portable four chains, and the AVX-512 eight where the CPU has AVX-512 DQ (the
-    /// CPUs of `SimdLevel::available`'s tests).
+    /// the portable four chains, and the AVX-512 eight where the CPU has AVX-512 DQ and VL.
     #[test]
     fn the_generator_draws_rand_pcgs_numbers() {
         let mut fills: Vec<(&str, fn(&mut Sampler, &mut [glam::Vec2]))> =
             vec![("fill_2d", Sampler::fill_2d), ("portable", Sampler::fill_2d_portable)];
         #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx512dq") && std::arch::is_x86_feature_detected!("avx512vl") {
+        if Sampler::has_avx512_fill() {
             // SAFETY: the CPU has AVX-512 DQ and VL, which is all `fill_2d_avx512` needs.
             fills.push(("avx512", |s, out| unsafe { s.fill_2d_avx512(out) }));
         }
