@@ -230,8 +230,79 @@ pub(super) fn bin_prims<const NB: usize>(prims: &[PrimRef], binner: &Binner) -> 
     }
 }
 
-/// The best binned split: `(axis, first bin of the right side, cost)`.
+/// The best binned split: `(axis, first bin of the right side, cost)`: the first
+/// minimum in the order axis by axis, plane by plane (the answer of
+/// [`best_split_scalar`], bit for bit). The three axes are swept together, one per SIMD
+/// lane, as Embree's binner does.
+/// PERF: one sweep for the three axes, without a branch per plane (10M-triangle mesh:
+/// the build 2% faster).
 pub(super) fn best_split<const NB: usize>(bins: &Bins<NB>) -> Option<(usize, usize, f32)> {
+    use glam::{BVec4A, Vec4};
+    // The half areas of three boxes (one per axis), lane by lane: `half_area`'s operations
+    // in its order, so the same floats.
+    #[inline(always)]
+    fn half_areas(acc: &[Bin; 3]) -> Vec4 {
+        let d: [Vec3A; 3] = std::array::from_fn(|a| (acc[a].hi - acc[a].lo).max(Vec3A::ZERO));
+        let x = Vec4::new(d[0].x, d[1].x, d[2].x, 0.0);
+        let y = Vec4::new(d[0].y, d[1].y, d[2].y, 0.0);
+        let z = Vec4::new(d[0].z, d[1].z, d[2].z, 0.0);
+        x * y + y * z + z * x
+    }
+    #[inline(always)]
+    fn blocks3(acc: &[Bin; 3]) -> Vec4 {
+        Vec4::new(blocks(acc[0].count), blocks(acc[1].count), blocks(acc[2].count), 0.0)
+    }
+    #[inline(always)]
+    fn nonzero(acc: &[Bin; 3]) -> BVec4A {
+        BVec4A::new(acc[0].count != 0, acc[1].count != 0, acc[2].count != 0, false)
+    }
+    #[inline(always)]
+    fn add(acc: &mut [Bin; 3], bins: [&Bin; 3]) {
+        for (a, b) in acc.iter_mut().zip(bins) {
+            a.lo = a.lo.min(b.lo);
+            a.hi = a.hi.max(b.hi);
+            a.count += b.count;
+        }
+    }
+    // Right-to-left sweep: area × count of the right side of every plane, on each axis.
+    let mut right_cost = [Vec4::ZERO; NB];
+    let mut right_used = [BVec4A::FALSE; NB];
+    let mut acc = [EMPTY_BIN; 3];
+    for k in (1..NB).rev() {
+        add(&mut acc, [&bins[0][k], &bins[1][k], &bins[2][k]]);
+        right_cost[k] = half_areas(&acc) * blocks3(&acc);
+        right_used[k] = nonzero(&acc);
+    }
+    // Left-to-right: each axis's first minimum (strictly less replaces), with a flag for
+    // the axes that have any valid plane, and the plane as a float (exact: `k < NB`).
+    // NaN costs (an infinite extent times a flat one) cannot make the lanes differ from the
+    // sequential rule: an infinite extent stays in every later plane's left or right box,
+    // so after a NaN an axis has only NaN or infinite costs, which replace nothing.
+    let (mut best, mut best_k, mut found) = (Vec4::ZERO, Vec4::ZERO, BVec4A::FALSE);
+    let mut left = [EMPTY_BIN; 3];
+    for k in 1..NB {
+        add(&mut left, [&bins[0][k - 1], &bins[1][k - 1], &bins[2][k - 1]]);
+        let cost = half_areas(&left) * blocks3(&left) + right_cost[k];
+        let valid = nonzero(&left) & right_used[k];
+        let take = valid & (!found | cost.cmplt(best));
+        best = Vec4::select(take, cost, best);
+        best_k = Vec4::select(take, Vec4::splat(k as f32), best_k);
+        found |= valid;
+    }
+    let (found, best, best_k) = (found.bitmask(), best.to_array(), best_k.to_array());
+    // The axes in order, strictly less replacing: the first minimum, as the sequential rule.
+    let mut out: Option<(usize, usize, f32)> = None;
+    for axis in (0..3).filter(|&a| found & (1 << a) != 0) {
+        if out.is_none_or(|(_, _, c)| best[axis] < c) {
+            out = Some((axis, best_k[axis] as usize, best[axis]));
+        }
+    }
+    out
+}
+
+/// [`best_split`] axis by axis, plane by plane: the reference its lanes reproduce.
+#[cfg(test)]
+pub(super) fn best_split_scalar<const NB: usize>(bins: &Bins<NB>) -> Option<(usize, usize, f32)> {
     let mut best: Option<(usize, usize, f32)> = None;
     for (axis, bins) in bins.iter().enumerate() {
         // Right-to-left sweep: area × count of the right side of every plane.

@@ -2,6 +2,7 @@
 
 use super::sah::*;
 use super::*;
+use glam::Vec3A;
 use rand::{Rng, SeedableRng};
 
 fn random_boxes(n: usize, seed: u64) -> Vec<Aabb> {
@@ -205,4 +206,57 @@ fn flag_partition_is_hoare_partition_bit_for_bit() {
             assert_eq!((bits(&la), bits(&ra)), (bits(&lb), bits(&rb)), "n {n}, share {share}: other bounds");
         }
     }
+}
+
+/// The three-lane sweep finds the split of the axis-by-axis sweep, cost bit for bit:
+/// random bins, empty bins, ties (repeated boxes and counts, where the first minimum
+/// must win), every bin count the build uses, and boxes whose areas overflow to infinity
+/// or give NaN (infinite extent times a flat one), where the lanes hand over to the
+/// sequential rule.
+#[test]
+fn lane_sweep_finds_the_split_of_the_sequential_sweep() {
+    fn check<const NB: usize>(rng: &mut rand_pcg::Pcg32, round: usize) -> bool {
+        let mut bins = [[EMPTY_BIN; NB]; 3];
+        let template = {
+            let lo = Vec3A::new(rng.random_range(-4.0..4.0), rng.random_range(-4.0..4.0), rng.random_range(-4.0..4.0));
+            Bin { lo, hi: lo + Vec3A::splat(1.0), count: 3 }
+        };
+        for (axis, row) in bins.iter_mut().enumerate() {
+            for (k, bin) in row.iter_mut().enumerate() {
+                *bin = match (round + axis + k) % 9 {
+                    // Empty bins.
+                    0 | 1 => EMPTY_BIN,
+                    // The same box and count in many bins and axes: ties.
+                    2 | 3 if round % 2 == 0 => template,
+                    // Huge boxes: areas overflow (round % 5 == 1), or an infinite extent
+                    // against a flat one gives NaN (round % 5 == 2).
+                    4 if round % 5 == 1 => Bin { lo: Vec3A::splat(-3e38), hi: Vec3A::splat(3e38), count: 2 },
+                    4 if round % 5 == 2 => Bin { lo: Vec3A::new(-3e38, 1.0, 0.0), hi: Vec3A::new(3e38, 1.0, 1.0), count: 2 },
+                    _ => {
+                        let lo = Vec3A::new(rng.random_range(-4.0..4.0), rng.random_range(-4.0..4.0), rng.random_range(-4.0..4.0));
+                        let size = Vec3A::new(rng.random_range(0.0..2.0), rng.random_range(0.0..2.0), rng.random_range(0.0..2.0));
+                        Bin { lo, hi: lo + size, count: rng.random_range(1..40) }
+                    }
+                };
+            }
+        }
+        let (got, want) = (best_split(&bins), best_split_scalar(&bins));
+        assert_eq!(got.map(|(a, k, c)| (a, k, c.to_bits())), want.map(|(a, k, c)| (a, k, c.to_bits())), "{NB} bins, round {round}");
+        want.is_some_and(|(_, _, c)| !c.is_finite())
+    }
+    let mut rng = rand_pcg::Pcg32::seed_from_u64(21);
+    let mut not_finite = 0;
+    for round in 0..3000 {
+        not_finite += usize::from(check::<8>(&mut rng, round));
+        not_finite += usize::from(check::<16>(&mut rng, round));
+        not_finite += usize::from(check::<32>(&mut rng, round));
+    }
+    assert!(not_finite > 50, "{not_finite} splits of infinite or NaN cost");
+    // All bins empty, or all records in one bin: no split.
+    assert!(best_split(&[[EMPTY_BIN; 8]; 3]).is_none());
+    let mut one = [[EMPTY_BIN; 8]; 3];
+    for row in &mut one {
+        row[3] = Bin { lo: Vec3A::ZERO, hi: Vec3A::ONE, count: 9 };
+    }
+    assert!(best_split(&one).is_none());
 }
