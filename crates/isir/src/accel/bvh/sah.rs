@@ -566,12 +566,19 @@ pub(super) fn build_sah_parallel(prims: &mut [PrimRef], b: &Bounds, first: u32, 
 /// The SAH build from primitive boxes (only the valid ones are passed in `indices`).
 pub(super) fn build_sah(indices: &[u32], box_of: impl Fn(u32) -> Aabb + Sync) -> (Vec<BvhNode>, Vec<u32>) {
     use rayon::prelude::*;
-    // The two large arrays on huge pages: fewer page faults while they fill.
-    let mut prims: Vec<PrimRef> = crate::accel::memory::vec_on_huge_pages(indices.len());
+    // PERF: the build's two large arrays (records and binary nodes) on ordinary pages; only
+    // the wide tree that rays walk goes on huge pages (`WideBvh::from_bvh`). These live for
+    // the build alone, and a huge page first touched can cost the kernel a compaction (THP
+    // `defrag` set to `madvise`, the common default) or, in a VM, the host's fault on fresh
+    // memory: on the 2-core Zen 4 VM the 10M-triangle build took 2.42 -> 2.19 s in a fresh
+    // process and 2.11 -> 1.85 s as the best of three (medians of 5), with these two on
+    // ordinary pages; the wide tree's arrays on ordinary pages too made both slower (the
+    // build 1.83 -> 1.98 s, random rays 2.5 -> 2.0 Mrays/s).
+    let mut prims: Vec<PrimRef> = Vec::with_capacity(indices.len());
     indices.par_iter().map(|&i| PrimRef::new(i, &box_of(i))).collect_into_vec(&mut prims);
     let bounds = Bounds::of(&prims);
     let top = build_sah_parallel(&mut prims, &bounds, 0, 0);
-    let mut nodes = crate::accel::memory::vec_on_huge_pages(top.node_count());
+    let mut nodes = Vec::with_capacity(top.node_count());
     nodes.push(BvhNode::default());
     top.flatten(&mut nodes, 0);
     (nodes, prims.iter().map(|p| p.index).collect())
