@@ -260,3 +260,24 @@ fn lane_sweep_finds_the_split_of_the_sequential_sweep() {
     }
     assert!(best_split(&one).is_none());
 }
+
+/// A record's two halves, each one aligned load, are its box corners, the fourth lanes
+/// cleared whatever the index (index bits read as a float may be denormal or NaN).
+#[test]
+fn record_halves_are_its_corners() {
+    let boxes = random_boxes(200, 17);
+    for (i, b) in boxes.iter().enumerate() {
+        for index in [i as u32, 0x007f_ffff, 0x7f80_0001, u32::MAX - 1] {
+            let p = PrimRef::new(index, b);
+            let [lo, hi] = p.halves();
+            assert_eq!((lo.to_array(), hi.to_array()), (p.min, p.max));
+            assert_eq!((lo, hi), (p.lo(), p.hi()));
+            #[cfg(target_arch = "x86_64")]
+            {
+                // SAFETY: a `Vec3A` is 16 bytes, any of which make a `[u32; 4]`.
+                let w = [lo, hi].map(|h| unsafe { std::mem::transmute::<Vec3A, [u32; 4]>(h) }[3]);
+                assert_eq!(w, [0, 0], "index {index:#x}");
+            }
+        }
+    }
+}
