@@ -177,7 +177,7 @@ fn bins_of_pairs_are_the_bins_of_one_record_at_a_time() {
 fn flag_partition_is_hoare_partition_bit_for_bit() {
     let bits = |b: &Bounds| [b.lo, b.hi, b.clo, b.chi].map(|v| v.to_array().map(f32::to_bits));
     let mut rng = rand_pcg::Pcg32::seed_from_u64(7);
-    for n in [0, 1, 2, 3, 63, 64, 65, 127, 128, 129, 1000, 4097, 16384] {
+    for n in [0, 1, 2, 3, 63, 64, 65, 127, 128, 129, 255, 256, 257, 1000, 4097, 16384, 16385] {
         for share in [0.0, 0.02, 0.5, 0.98, 1.0] {
             let mut prims: Vec<PrimRef> = random_boxes(n, n as u64)
                 .iter()
