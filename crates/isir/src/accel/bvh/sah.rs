@@ -35,30 +35,29 @@ impl PrimRef {
     pub(super) fn hi(&self) -> Vec3A {
         Vec3A::from_array(self.max)
     }
-    /// The record as two SIMD registers, `min` and `max`, each one aligned load with its
-    /// fourth lane (the index's bits, the padding) cleared: index bits read as a float are
-    /// denormal, which would slow the arithmetic down.
+    /// The record as two SIMD registers, `min` and `max`: on x86-64 each one aligned load
+    /// with its fourth lane (the index's bits, the padding) cleared, as index bits read as
+    /// a float are denormal, which would slow the arithmetic down; elsewhere `lo()` and
+    /// `hi()`.
     /// PERF: `lo()` and `hi()` gather three floats each (four instructions per vector):
     /// binning a record 5.3 -> 4.1 ns.
     #[inline(always)]
     pub(super) fn halves(&self) -> [Vec3A; 2] {
-        const { assert!(std::mem::size_of::<PrimRef>() == 2 * std::mem::size_of::<Vec3A>()) };
-        // SAFETY: `PrimRef` is `repr(C)`, 32 bytes aligned to 16: two 16-byte halves of
-        // plain `f32`/`u32` data, any bits of which make a valid `Vec3A` (four floats,
-        // 16-byte aligned, on every target glam supports).
-        let halves = unsafe { std::mem::transmute::<PrimRef, [Vec3A; 2]>(*self) };
         #[cfg(target_arch = "x86_64")]
         {
             use std::arch::x86_64::{__m128, _mm_and_ps, _mm_castsi128_ps, _mm_set_epi32};
-            // SAFETY: SSE2 is part of x86-64.
+            const { assert!(std::mem::size_of::<PrimRef>() == 2 * std::mem::size_of::<__m128>()) };
+            // SAFETY: `PrimRef` is `repr(C)`, 32 bytes aligned to 16: two 16-byte halves of
+            // plain `f32`/`u32` data, any bits of which make a valid `__m128`; SSE2 is part
+            // of x86-64.
             unsafe {
+                let halves = std::mem::transmute::<PrimRef, [__m128; 2]>(*self);
                 let xyz = _mm_castsi128_ps(_mm_set_epi32(0, -1, -1, -1));
-                halves.map(|h| Vec3A::from(_mm_and_ps(__m128::from(h), xyz)))
+                halves.map(|h| Vec3A::from(_mm_and_ps(h, xyz)))
             }
         }
-        // Elsewhere `Vec3A` computes on its three lanes only.
         #[cfg(not(target_arch = "x86_64"))]
-        halves
+        [self.lo(), self.hi()]
     }
 
     /// Twice the centroid: binning only needs it up to scale.

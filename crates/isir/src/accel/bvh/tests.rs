@@ -211,8 +211,8 @@ fn flag_partition_is_hoare_partition_bit_for_bit() {
 /// The three-lane sweep finds the split of the axis-by-axis sweep, cost bit for bit:
 /// random bins, empty bins, ties (repeated boxes and counts, where the first minimum
 /// must win), every bin count the build uses, and boxes whose areas overflow to infinity
-/// or give NaN (infinite extent times a flat one), where the lanes hand over to the
-/// sequential rule.
+/// or give NaN (infinite extent times a flat one), where the per-axis lanes must still
+/// agree with the sequential rule (`best_split`'s comment says why they do).
 #[test]
 fn lane_sweep_finds_the_split_of_the_sequential_sweep() {
     fn check<const NB: usize>(rng: &mut rand_pcg::Pcg32, round: usize) -> bool {
