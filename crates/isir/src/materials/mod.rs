@@ -174,24 +174,22 @@ impl Material {
     /// another.
     #[inline(always)]
     pub fn shade_lanes<const N: usize>(&self, ray: &Ray, hit: &Hit, wi: &[[f32; N]; 3], out: &mut [[f32; N]; 3]) {
-        match *self {
-            Material::Matte { kd, sigma } => {
-                oren_nayar_lanes(kd, sigma, hit.normal, -ray.direction.normalize_or_zero(), wi, out);
-                return;
-            }
-            _ => {
-                if let Some(c) = self.shade_any_direction(hit) {
-                    // The same for every direction.
-                    let c = c.to_array();
-                    for k in 0..3 {
-                        out[k] = [c[k]; N];
-                    }
-                    return;
-                }
-            }
+        let wo = -ray.direction.normalize_or_zero();
+        if let Material::Matte { kd, sigma } = *self {
+            oren_nayar_lanes(kd, sigma, hit.normal, wo, wi, out);
+            return;
         }
+        if let Some(c) = self.shade_any_direction(hit) {
+            // The same for every direction.
+            let c = c.to_array();
+            for k in 0..3 {
+                out[k] = [c[k]; N];
+            }
+            return;
+        }
+        // `shade_from` of the materials left: their BRDF, `wo` computed once.
         for j in 0..N {
-            let c = self.shade_from(ray, hit, Vec3::new(wi[0][j], wi[1][j], wi[2][j]));
+            let c = self.brdf(hit.normal, wo, Vec3::new(wi[0][j], wi[1][j], wi[2][j]));
             (out[0][j], out[1][j], out[2][j]) = (c.x, c.y, c.z);
         }
     }
