@@ -211,12 +211,22 @@ impl Renderer {
             let n = samplers.len();
             camera.generate_rays(&sx[..n], &sy[..n], &mut rays);
             integrator.li_lanes(scene, &rays, samplers, counters, &mut out);
-            for k in 0..n {
-                if samples.check(out[k]) {
-                    let (sum, kept) = &mut sums[slot[k]];
-                    *sum += out[k];
-                    *kept += 1;
+            // Each pixel's run of samples summed in a local, in sample order, and stored
+            // once. PERF: added in place, each sample's sum waited on the store of the one
+            // before it (store-to-load forwarding): tp4-bunny at 64 spp 0.976, tp4-sphere
+            // 0.980, tp5-phong 0.982 (9 runs).
+            let mut k = 0;
+            while k < n {
+                let (mut sum, mut kept) = sums[slot[k]];
+                let start = k;
+                while k < n && slot[k] == slot[start] {
+                    if samples.check(out[k]) {
+                        sum += out[k];
+                        kept += 1;
+                    }
+                    k += 1;
                 }
+                sums[slot[start]] = (sum, kept);
             }
             samplers.clear();
         };
