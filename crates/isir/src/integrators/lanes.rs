@@ -42,8 +42,13 @@ impl Integrator {
                 // Direct lighting in lanes where the surface is not a mirror or glass; the
                 // recursion one lane at a time where it is.
                 let specular: [bool; LANES] = std::array::from_fn(|k| hits[k].as_ref().is_some_and(|h| scene.material(h).is_delta()));
-                let diffuse: [Option<Hit>; LANES] = std::array::from_fn(|k| if specular[k] { None } else { hits[k] });
-                direct_lanes(scene, rays, &diffuse, light_samples, samplers, counters, out);
+                // PERF: the hits copied without the specular lanes only when there are some.
+                if specular.contains(&true) {
+                    let diffuse: [Option<Hit>; LANES] = std::array::from_fn(|k| if specular[k] { None } else { hits[k] });
+                    direct_lanes(scene, rays, &diffuse, light_samples, samplers, counters, out);
+                } else {
+                    direct_lanes(scene, rays, &hits, light_samples, samplers, counters, out);
+                }
                 for k in (0..n).filter(|&k| specular[k]) {
                     let Some(hit) = &hits[k] else { unreachable!("a specular lane has a hit") };
                     out[k] = whitted::li_at_hit(scene, &rays.ray(k), hit, light_samples, max_depth, &mut samplers[k], counters);
