@@ -174,17 +174,17 @@ impl Material {
     /// another.
     #[inline(always)]
     pub fn shade_lanes<const N: usize>(&self, ray: &Ray, hit: &Hit, wi: &[[f32; N]; 3], out: &mut [[f32; N]; 3]) {
-        let wo = -ray.direction.normalize_or_zero();
-        if let Material::Matte { kd, sigma } = *self {
-            oren_nayar_lanes(kd, sigma, hit.normal, wo, wi, out);
-            return;
-        }
         if let Some(c) = self.shade_any_direction(hit) {
-            // The same for every direction.
+            // The same for every direction (no `wo` needed).
             let c = c.to_array();
             for k in 0..3 {
                 out[k] = [c[k]; N];
             }
+            return;
+        }
+        let wo = -ray.direction.normalize_or_zero();
+        if let Material::Matte { kd, sigma } = *self {
+            oren_nayar_lanes(kd, sigma, hit.normal, wo, wi, out);
             return;
         }
         // `shade_from` of the materials left: their BRDF, `wo` computed once.
