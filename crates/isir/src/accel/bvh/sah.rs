@@ -133,6 +133,16 @@ pub(super) struct Bin {
 
 pub(super) const EMPTY_BIN: Bin = Bin { lo: Vec3A::INFINITY, hi: Vec3A::NEG_INFINITY, count: 0 };
 
+impl Bin {
+    /// Take `o`'s records in: the union of the boxes, the sum of the counts.
+    #[inline(always)]
+    pub(super) fn add(&mut self, o: &Bin) {
+        self.lo = self.lo.min(o.lo);
+        self.hi = self.hi.max(o.hi);
+        self.count += o.count;
+    }
+}
+
 /// Bins per axis; `NB` is the node's [`bin_count`], so a small node only initialises and
 /// sweeps the bins it uses.
 pub(super) type Bins<const NB: usize> = [[Bin; NB]; 3];
@@ -203,9 +213,7 @@ pub(super) fn blocks(n: u32) -> f32 {
 pub(super) fn merge_bins<const NB: usize>(mut a: Bins<NB>, b: &Bins<NB>) -> Bins<NB> {
     for axis in 0..3 {
         for k in 0..NB {
-            a[axis][k].lo = a[axis][k].lo.min(b[axis][k].lo);
-            a[axis][k].hi = a[axis][k].hi.max(b[axis][k].hi);
-            a[axis][k].count += b[axis][k].count;
+            a[axis][k].add(&b[axis][k]);
         }
     }
     a
@@ -290,9 +298,7 @@ pub(super) fn best_split<const NB: usize>(bins: &Bins<NB>) -> Option<(usize, usi
     #[inline(always)]
     fn add(acc: &mut [Bin; 3], bins: [&Bin; 3]) {
         for (a, b) in acc.iter_mut().zip(bins) {
-            a.lo = a.lo.min(b.lo);
-            a.hi = a.hi.max(b.hi);
-            a.count += b.count;
+            a.add(b);
         }
     }
     // Right-to-left sweep: area × count of the right side of every plane, on each axis.
@@ -341,17 +347,13 @@ pub(super) fn best_split_scalar<const NB: usize>(bins: &Bins<NB>) -> Option<(usi
         let mut right_count = [0u32; NB];
         let mut acc = EMPTY_BIN;
         for k in (1..NB).rev() {
-            acc.lo = acc.lo.min(bins[k].lo);
-            acc.hi = acc.hi.max(bins[k].hi);
-            acc.count += bins[k].count;
+            acc.add(&bins[k]);
             right_cost[k] = half_area(acc.lo, acc.hi) * blocks(acc.count);
             right_count[k] = acc.count;
         }
         let mut left = EMPTY_BIN;
         for k in 1..NB {
-            left.lo = left.lo.min(bins[k - 1].lo);
-            left.hi = left.hi.max(bins[k - 1].hi);
-            left.count += bins[k - 1].count;
+            left.add(&bins[k - 1]);
             if left.count == 0 || right_count[k] == 0 {
                 continue;
             }
