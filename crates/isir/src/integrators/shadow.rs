@@ -13,7 +13,7 @@ use crate::geometry::Hit;
 use crate::lights::{LightSample, LightSampler};
 use crate::materials::Material;
 use crate::math::color::Color;
-use crate::math::ray::{round_away, Ray, RayLanes, ShadowRays};
+use crate::math::ray::{lane_mask, round_away, Ray, RayLanes, ShadowRays};
 use glam::{Vec2, Vec3};
 
 /// Samples per batch.
@@ -264,8 +264,11 @@ pub(super) struct LambertLanes {
 
 /// The lanes among the first `count` whose flag in `live` is set, as a mask (a batch's
 /// live samples).
+/// PERF: [`lane_mask`]'s multiplications, not a loop of selects and shifts per lane (3% of
+/// `quad_light` on tp6-matte-quad).
 pub(super) fn live_mask(live: &[bool; BATCH], count: usize) -> u32 {
-    (0..count).filter(|&j| live[j]).fold(0, |m, j| m | 1 << j)
+    const { assert!(BATCH == crate::math::ray::LANES) };
+    lane_mask(live) & ((1u32 << count.min(BATCH)) - 1)
 }
 
 /// One sample of a light from each of up to [`BATCH`] hits (one camera sample or one
@@ -584,6 +587,20 @@ mod tests {
             }
         }
         assert!(live > 1000 && dead > 1000, "{live} {dead}");
+    }
+
+    /// The live mask has the bit of every live lane below `count`, and no other, for
+    /// every count from 0 to 16.
+    #[test]
+    fn live_mask_is_the_live_lanes_below_count() {
+        let mut rng = Sampler::from_seed(21);
+        for round in 0..2000 {
+            let live: [bool; BATCH] = std::array::from_fn(|_| rng.next_f32() < [0.1, 0.5, 0.9][round % 3]);
+            for count in 0..=BATCH {
+                let expected = (0..count).filter(|&j| live[j]).fold(0, |m, j| m | 1 << j);
+                assert_eq!(live_mask(&live, count), expected, "{live:?} {count}");
+            }
+        }
     }
 
     /// A hit at `point` (error bound `point_error`) with shading normal `normal` and
