@@ -638,6 +638,9 @@ mod tests {
             Material::Plastic { kd: Vec3::splat(0.5), ks: Vec3::ONE, shininess: 64.0, blinn: false },
             Material::CookTorrance { kd: Vec3::splat(0.5), f0: Vec3::new(1.0, 0.85, 0.57), roughness: 0.3, metalness: 0.5 },
             Material::Mirror,
+            // Colours whose products with zero are not `+0` (`-0`, NaN).
+            Material::Matte { kd: Vec3::new(-0.5, -0.0, 0.7), sigma: 0.3 },
+            Material::Matte { kd: Vec3::new(0.5, f32::INFINITY, 0.7), sigma: 0.3 },
         ];
         let light = Light::Quad {
             corner: Vec3::new(-1.0, 3.0, -1.0),
