@@ -389,13 +389,15 @@ impl LightLanes {
                 // above, LLVM split the lanes by it and made every store an AVX masked
                 // store once the crate was one codegen unit (this function 6.6% -> 13.9%
                 // of tp6-matte-quad's path tracer; apart, 7.5%).
-                for j in 0..BATCH {
-                    // The back of the light (or NaN): nothing.
-                    let lit = cl_of[j] > 0.0;
-                    for k in 0..3 {
-                        b.radiance[k][j] = if lit { em[k] / pdf_of[j] } else { 0.0 };
+                // The back of the light (or NaN): nothing.
+                for k in 0..3 {
+                    for j in 0..BATCH {
+                        let q = em[k] / pdf_of[j];
+                        b.radiance[k][j] = if cl_of[j] > 0.0 { q } else { 0.0 };
                     }
-                    b.pdf[j] = if lit { pdf_of[j] } else { 0.0 };
+                }
+                for j in 0..BATCH {
+                    b.pdf[j] = if cl_of[j] > 0.0 { pdf_of[j] } else { 0.0 };
                 }
             }
         }
@@ -413,7 +415,7 @@ impl LightLanes {
             let r = [b.point[0][j] - o[0], b.point[1][j] - o[1], b.point[2][j] - o[2]];
             let dist = (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt();
             let has_ray = dist > 0.0 && dist.is_finite();
-            let some_radiance = b.radiance[0][j] != 0.0 || b.radiance[1][j] != 0.0 || b.radiance[2][j] != 0.0;
+            let some_radiance = (b.radiance[0][j] != 0.0) | (b.radiance[1][j] != 0.0) | (b.radiance[2][j] != 0.0);
             for k in 0..3 {
                 b.rays.o[k][j] = o[k];
                 b.rays.d[k][j] = r[k] / dist;
@@ -421,7 +423,7 @@ impl LightLanes {
             b.cos[j] = cos;
             b.rays.t_max[j] = dist * (1.0 - 1e-4);
             b.has_ray[j] = has_ray;
-            b.live[j] = has[j] && cos != 0.0 && some_radiance && has_ray;
+            b.live[j] = has[j] & (cos != 0.0) & some_radiance & has_ray;
         }
         b
     }
