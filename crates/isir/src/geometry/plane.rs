@@ -50,6 +50,49 @@ impl Plane {
         lane_mask(&hit)
     }
 
+    /// [`Plane::hit_lanes`] written with AVX2 intrinsics: the same operations in the same
+    /// order (no FMA), eight lanes at a time, the lanes' answers gathered with
+    /// `vmovmskps`.
+    /// PERF: from the compiler's vectorised loop, the flags went through packs, a store and
+    /// multiplications into a mask (`lane_mask`), 12% of `Scene::occluded_lanes` on
+    /// tp6-matte-quad.
+    ///
+    /// # Safety
+    /// Call it only where the CPU has AVX2 (`is_x86_feature_detected!("avx2")`).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    #[must_use]
+    #[inline]
+    pub fn hit_lanes_avx2(&self, rays: &RayLanes) -> u32 {
+        use std::arch::x86_64::{
+            _mm256_add_ps, _mm256_and_ps, _mm256_cmp_ps, _mm256_div_ps, _mm256_loadu_ps, _mm256_movemask_ps, _mm256_mul_ps, _mm256_set1_ps,
+            _mm256_setzero_ps, _mm256_sub_ps, _CMP_GE_OQ, _CMP_LT_OQ, _CMP_NEQ_UQ,
+        };
+        let (p, n) = (self.point, self.normal);
+        let (nx, ny, nz) = (_mm256_set1_ps(n.x), _mm256_set1_ps(n.y), _mm256_set1_ps(n.z));
+        let (px, py, pz) = (_mm256_set1_ps(p.x), _mm256_set1_ps(p.y), _mm256_set1_ps(p.z));
+        let mut mask = 0;
+        for half in 0..LANES / 8 {
+            // SAFETY: eight floats from `8 * half` of sixteen-float arrays, in bounds.
+            let at = |a: &[f32; LANES]| unsafe { _mm256_loadu_ps(a.as_ptr().add(8 * half)) };
+            let (ox, oy, oz) = (at(&rays.o[0]), at(&rays.o[1]), at(&rays.o[2]));
+            let (dx, dy, dz) = (at(&rays.d[0]), at(&rays.d[1]), at(&rays.d[2]));
+            let denom = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, nx), _mm256_mul_ps(dy, ny)), _mm256_mul_ps(dz, nz));
+            let num = _mm256_add_ps(
+                _mm256_add_ps(_mm256_mul_ps(_mm256_sub_ps(px, ox), nx), _mm256_mul_ps(_mm256_sub_ps(py, oy), ny)),
+                _mm256_mul_ps(_mm256_sub_ps(pz, oz), nz),
+            );
+            let t = _mm256_div_ps(num, denom);
+            // `denom != 0.0` (true for NaN), `t >= t_min`, `t < t_max` (false for NaN).
+            let hit = _mm256_and_ps(
+                _mm256_and_ps(_mm256_cmp_ps::<_CMP_NEQ_UQ>(denom, _mm256_setzero_ps()), _mm256_cmp_ps::<_CMP_GE_OQ>(t, at(&rays.t_min))),
+                _mm256_cmp_ps::<_CMP_LT_OQ>(t, at(&rays.t_max)),
+            );
+            mask |= (_mm256_movemask_ps(hit) as u32) << (8 * half);
+        }
+        mask
+    }
+
     /// Closest hits of the rays `rays`: each lane `k` whose ray meets the plane in
     /// `[t_min[k], t_best[k])` gets that `t` in `t_best[k]` and its bit set in the result.
     /// The `t` of [`Plane::intersect`], by the same operations lane by lane, vectorised.
@@ -102,6 +145,23 @@ mod tests {
     fn hit_lanes_answers_as_intersect() {
         let shape = Plane::new(Vec3::new(0.0, -1.0, 0.5), Vec3::new(0.2, 1.0, -0.1));
         crate::math::ray::check_hit_lanes(|lanes| shape.hit_lanes(lanes), |ray, t_min, t_max| shape.intersect(ray, t_min, t_max).is_some());
+    }
+
+    /// The AVX2 intrinsics answer as `intersect` too, where this CPU has AVX2 (the other
+    /// CPUs run `hit_lanes`, tested above).
+    #[test]
+    #[cfg(target_arch = "x86_64")]
+    fn hit_lanes_avx2_answers_as_intersect() {
+        if !std::arch::is_x86_feature_detected!("avx2") {
+            eprintln!("no AVX2 on this CPU: hit_lanes_avx2 not run");
+            return;
+        }
+        let shape = Plane::new(Vec3::new(0.0, -1.0, 0.5), Vec3::new(0.2, 1.0, -0.1));
+        // SAFETY: the CPU has AVX2 (checked above).
+        crate::math::ray::check_hit_lanes(
+            |lanes| unsafe { shape.hit_lanes_avx2(lanes) },
+            |ray, t_min, t_max| shape.intersect(ray, t_min, t_max).is_some(),
+        );
     }
 
     /// `closest_lanes` gives each lane the `t` of `intersect` (see `check_closest_lanes`).

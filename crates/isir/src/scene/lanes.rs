@@ -191,7 +191,7 @@ impl Scene {
             // SAFETY: the CPU has AVX2, which is all `occluded_lanes_avx2` is compiled for.
             return unsafe { self.occluded_lanes_avx2(rays, live) };
         }
-        self.occluded_lanes_portable(rays, live)
+        self.occluded_lanes_portable::<false>(rays, live)
     }
 
     /// [`Scene::occluded_lanes`] for two batches of lanes at once (`[first's, second's]`,
@@ -211,11 +211,12 @@ impl Scene {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     fn occluded_lanes_avx2(&self, rays: &RayLanes, live: u32) -> u32 {
-        self.occluded_lanes_portable(rays, live)
+        self.occluded_lanes_portable::<true>(rays, live)
     }
 
     #[inline(always)]
-    pub(crate) fn occluded_lanes_portable(&self, rays: &RayLanes, live: u32) -> u32 {
+    /// `AVX2`: compiled into a function for AVX2 (planes tested with its intrinsics).
+    pub(crate) fn occluded_lanes_portable<const AVX2: bool>(&self, rays: &RayLanes, live: u32) -> u32 {
         let live = live & (u32::MAX >> (32 - LANES));
         let single = |i: usize, k: usize| u32::from(self.blocks(i, &rays.ray(k), rays.t_min[k], rays.t_max[k])) << k;
         if self.top_level.is_some() || live.count_ones() < 2 {
@@ -236,7 +237,20 @@ impl Scene {
             }
             let blocked = match &object.geometry {
                 Geometry::Sphere(s) => s.hit_lanes(rays) & open,
-                Geometry::Plane(p) => p.hit_lanes(rays) & open,
+                Geometry::Plane(p) => {
+                    #[cfg(target_arch = "x86_64")]
+                    if AVX2 {
+                        // SAFETY: `AVX2` is true only in `occluded_lanes_avx2`, which runs
+                        // only where the CPU has AVX2.
+                        unsafe { p.hit_lanes_avx2(rays) & open }
+                    } else {
+                        p.hit_lanes(rays) & open
+                    }
+                    #[cfg(not(target_arch = "x86_64"))]
+                    {
+                        p.hit_lanes(rays) & open
+                    }
+                }
                 Geometry::Mesh(m) => {
                     // Only the rays that may meet the mesh's box (shadow rays from many
                     // hits miss a small mesh), then those together, their answers back in
@@ -352,7 +366,7 @@ mod tests {
                 };
                 let got = scene.occluded_lanes(&lanes, live);
                 // The portable loops (CPUs without AVX2) answer the same.
-                assert_eq!(scene.occluded_lanes_portable(&lanes, live), got);
+                assert_eq!(scene.occluded_lanes_portable::<false>(&lanes, live), got);
                 for (k, r) in rays.iter().enumerate() {
                     let expected = live & (1 << k) != 0 && scene.occluded(&r.ray(), r.t_min, r.t_max);
                     assert_eq!(got & (1 << k) != 0, expected, "{name}, round {round}, lane {k}: {r:?}");
