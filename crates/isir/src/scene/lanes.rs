@@ -214,8 +214,11 @@ impl Scene {
         self.occluded_lanes_portable::<true>(rays, live)
     }
 
+    /// The loops of [`Scene::occluded_lanes`]; `AVX2` when compiled into a function for
+    /// AVX2 (the planes then tested with its intrinsics, [`Plane::hit_lanes_avx2`]).
+    ///
+    /// [`Plane::hit_lanes_avx2`]: crate::geometry::Plane::hit_lanes_avx2
     #[inline(always)]
-    /// `AVX2`: compiled into a function for AVX2 (planes tested with its intrinsics).
     pub(crate) fn occluded_lanes_portable<const AVX2: bool>(&self, rays: &RayLanes, live: u32) -> u32 {
         let live = live & (u32::MAX >> (32 - LANES));
         let single = |i: usize, k: usize| u32::from(self.blocks(i, &rays.ray(k), rays.t_min[k], rays.t_max[k])) << k;
