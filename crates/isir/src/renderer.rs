@@ -337,6 +337,31 @@ mod tests {
         }
     }
 
+    /// Whitted's mirror and glass recursion in lanes (breadth first, then summed depth
+    /// first) gives the image of one sample at a time where branches leave the scene (the
+    /// background), stop at `max_depth` (1 and 2) or are pruned by their weight: the TP6
+    /// glass room without its walls and floor.
+    #[test]
+    fn whitted_lanes_match_one_at_a_time_where_rays_leave_the_scene() {
+        let mut desc = crate::scenes::builtin("tp6-glass").unwrap();
+        desc.objects.retain(|o| !matches!(o.shape, crate::scenes::ShapeDesc::Plane(_)));
+        desc.background = Color::new(0.2, 0.3, 0.4);
+        let scene = desc.build(crate::Accel::BvhSah).unwrap();
+        let mut background = 0;
+        for (max_depth, spp) in [(1, 3), (2, 5), (5, 16)] {
+            let integrator = Integrator::Whitted { light_samples: 1, max_depth };
+            let one = Renderer { lanes: false, ..Renderer::new(41, 29).spp(spp).seed(9) };
+            let camera = desc.camera.build(one.aspect());
+            let many = Renderer { lanes: true, ..one.clone() };
+            let (a, sa) = one.render(&scene, &camera, &integrator);
+            let (b, sb) = many.render(&scene, &camera, &integrator);
+            assert!(a.pixels == b.pixels, "max_depth {max_depth}");
+            assert_eq!((sa.rays, sa.samples), (sb.rays, sb.samples));
+            background += a.pixels.iter().filter(|p| **p == desc.background).count();
+        }
+        assert!(background > 100, "{background} background pixels");
+    }
+
     /// Samples in lanes give the image of one sample at a time, pixel for pixel, and the
     /// same counts: every built-in scene with its own integrator and with each of the four,
     /// at sample counts that fill lanes partly (1, 3), exactly (16) and across pixels (5),

@@ -49,9 +49,9 @@ impl Integrator {
                 } else {
                     direct_lanes(scene, rays, &hits, light_samples, samplers, counters, out);
                 }
-                for k in (0..n).filter(|&k| specular[k]) {
-                    let Some(hit) = &hits[k] else { unreachable!("a specular lane has a hit") };
-                    out[k] = whitted::li_at_hit(scene, &rays.ray(k), hit, light_samples, max_depth, &mut samplers[k], counters);
+                let specular_lanes = (0..n).filter(|&k| specular[k]).fold(0u32, |m, k| m | 1 << k);
+                if specular_lanes != 0 {
+                    whitted::li_at_hits(scene, rays, &hits, specular_lanes, light_samples, max_depth, samplers, counters, out);
                 }
             }
             Integrator::Path { light_samples, max_depth } => {
