@@ -2,7 +2,8 @@
 //! small wavefront). Their closest hits come from one [`Scene::intersect_lanes`]; each
 //! lane's surface interaction and shading is the course's code, one lane after another;
 //! the shadow rays of all the lanes towards one point light go to one
-//! [`Scene::occluded_lanes`]. Whitted's mirrors and glass recurse one lane at a time; the
+//! [`Scene::occluded_lanes`]. Whitted's mirrors and glass recurse breadth first, every
+//! lane's rays of one depth found together (`whitted::li_at_hits`); the
 //! path tracer steps its paths side by side, each bounce's hits found in lanes. Every lane's colour is the
 //! one [`Integrator::li`] returns for its ray and sampler, bit for bit: the same operations
 //! on the same floats, only grouped differently.
@@ -40,7 +41,7 @@ impl Integrator {
             Integrator::DirectLighting { light_samples } => direct_lanes(scene, rays, &hits, light_samples, samplers, counters, out),
             Integrator::Whitted { light_samples, max_depth } => {
                 // Direct lighting in lanes where the surface is not a mirror or glass; the
-                // recursion one lane at a time where it is.
+                // recursion of the lanes where it is, their rays found depth by depth.
                 let specular: [bool; LANES] = std::array::from_fn(|k| hits[k].as_ref().is_some_and(|h| scene.material(h).is_delta()));
                 // PERF: the hits copied without the specular lanes only when there are some.
                 if specular.contains(&true) {
