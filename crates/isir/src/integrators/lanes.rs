@@ -19,7 +19,7 @@ use super::{whitted, Integrator, RayCounters};
 use crate::geometry::Hit;
 use crate::lights::{Light, LightSampler};
 use crate::math::color::Color;
-use crate::math::ray::{lanes_of, spawn_lanes, RayLanes, ShadowRays, SurfaceLanes, LANES};
+use crate::math::ray::{lane_mask, lanes_of, spawn_lanes, RayLanes, ShadowRays, SurfaceLanes, LANES};
 use crate::math::sampling::{cosine_hemisphere_lanes, Sampler};
 use crate::scene::Scene;
 use glam::{Vec2, Vec3};
@@ -42,17 +42,14 @@ impl Integrator {
             Integrator::Whitted { light_samples, max_depth } => {
                 // Direct lighting in lanes where the surface is not a mirror or glass; the
                 // recursion of the lanes where it is, their rays found depth by depth.
-                let specular: [bool; LANES] = std::array::from_fn(|k| hits[k].as_ref().is_some_and(|h| scene.material(h).is_delta()));
+                let specular = lane_mask(&std::array::from_fn(|k| hits[k].as_ref().is_some_and(|h| scene.material(h).is_delta())));
                 // PERF: the hits copied without the specular lanes only when there are some.
-                if specular.contains(&true) {
-                    let diffuse: [Option<Hit>; LANES] = std::array::from_fn(|k| if specular[k] { None } else { hits[k] });
-                    direct_lanes(scene, rays, &diffuse, light_samples, samplers, counters, out);
-                } else {
+                if specular == 0 {
                     direct_lanes(scene, rays, &hits, light_samples, samplers, counters, out);
-                }
-                let specular_lanes = (0..n).filter(|&k| specular[k]).fold(0u32, |m, k| m | 1 << k);
-                if specular_lanes != 0 {
-                    whitted::li_at_hits(scene, rays, &hits, specular_lanes, light_samples, max_depth, samplers, counters, out);
+                } else {
+                    let diffuse: [Option<Hit>; LANES] = std::array::from_fn(|k| if specular & (1 << k) != 0 { None } else { hits[k] });
+                    direct_lanes(scene, rays, &diffuse, light_samples, samplers, counters, out);
+                    whitted::li_at_hits(scene, rays, &hits, specular, light_samples, max_depth, samplers, counters, out);
                 }
             }
             Integrator::Path { light_samples, max_depth } => {

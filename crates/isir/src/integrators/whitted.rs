@@ -34,6 +34,18 @@ pub struct SpecularSplit {
     pub refracted: Option<Vec3>,
 }
 
+impl SpecularSplit {
+    /// The branches Whitted follows from a ray carrying `weight` of the camera ray's
+    /// colour, in order (the reflection, then the refraction), each with its weight `w`:
+    /// those with `w > 0` and `weight · w` at least [`WHITTED_MIN_WEIGHT`].
+    fn branches(&self, weight: f32) -> impl Iterator<Item = (Vec3, f32)> {
+        [Some((self.reflected, self.kr)), self.refracted.map(|t| (t, 1.0 - self.kr))]
+            .into_iter()
+            .flatten()
+            .filter(move |&(_, w)| w > 0.0 && weight * w >= WHITTED_MIN_WEIGHT)
+    }
+}
+
 /// The split of Whitted's recursion at `hit` for a ray leaving towards `wo` (unit,
 /// away from the surface), or `None` for a material that gets direct lighting.
 #[must_use]
@@ -112,15 +124,9 @@ fn at_hit(ctx: &Ctx, ray: &Ray, hit: &Hit, depth: u32, weight: f32, sampler: &mu
         return BLACK;
     }
     let mut c = BLACK;
-    let mut follow = |dir: Vec3, w: f32, counters: &mut RayCounters, sampler: &mut Sampler| {
-        if w > 0.0 && weight * w >= WHITTED_MIN_WEIGHT {
-            counters.secondary += 1;
-            c += w * trace(ctx, &hit.spawn_ray(dir), 0.0, f32::INFINITY, depth + 1, weight * w, sampler, counters);
-        }
-    };
-    follow(split.reflected, split.kr, counters, sampler);
-    if let Some(t) = split.refracted {
-        follow(t, 1.0 - split.kr, counters, sampler);
+    for (dir, w) in split.branches(weight) {
+        counters.secondary += 1;
+        c += w * trace(ctx, &hit.spawn_ray(dir), 0.0, f32::INFINITY, depth + 1, weight * w, sampler, counters);
     }
     c
 }
@@ -133,8 +139,6 @@ struct Node {
     hit: Option<Hit>,
     depth: u32,
     weight: f32,
-    /// The hit's material is a mirror or glass (the node has a split, maybe no branch).
-    specular: bool,
     /// The branches followed, in `at_hit`'s order (reflection, then refraction): the
     /// node's index and its weight `w`.
     children: [Option<(usize, f32)>; 2],
@@ -166,7 +170,7 @@ pub(super) fn li_at_hits(
     for k in lanes_of(mask) {
         roots[k] = nodes.len();
         frontier.push(nodes.len());
-        nodes.push(Node { ray: rays.ray(k), hit: hits[k], depth: 0, weight: 1.0, specular: true, children: [None, None] });
+        nodes.push(Node { ray: rays.ray(k), hit: hits[k], depth: 0, weight: 1.0, children: [None, None] });
     }
     while !frontier.is_empty() {
         // The branches of this depth's mirror and glass hits.
@@ -175,30 +179,16 @@ pub(super) fn li_at_hits(
             let Node { ray, hit, depth, weight, .. } = nodes[i];
             let Some(hit) = hit else { continue };
             let wo = -ray.direction.normalize();
-            let Some(split) = specular_split(scene.material(&hit), &hit, wo) else {
-                nodes[i].specular = false;
-                continue;
-            };
+            let Some(split) = specular_split(scene.material(&hit), &hit, wo) else { continue };
             if depth >= max_depth {
                 continue;
             }
-            let branches = [Some((split.reflected, split.kr)), split.refracted.map(|t| (t, 1.0 - split.kr))];
-            for (b, branch) in branches.into_iter().enumerate() {
-                let Some((dir, w)) = branch else { continue };
-                if w > 0.0 && weight * w >= WHITTED_MIN_WEIGHT {
-                    counters.secondary += 1;
-                    let child = nodes.len();
-                    nodes.push(Node {
-                        ray: hit.spawn_ray(dir),
-                        hit: None,
-                        depth: depth + 1,
-                        weight: weight * w,
-                        specular: false,
-                        children: [None, None],
-                    });
-                    nodes[i].children[b] = Some((child, w));
-                    born.push(child);
-                }
+            for (b, (dir, w)) in split.branches(weight).enumerate() {
+                counters.secondary += 1;
+                let child = nodes.len();
+                nodes.push(Node { ray: hit.spawn_ray(dir), hit: None, depth: depth + 1, weight: weight * w, children: [None, None] });
+                nodes[i].children[b] = Some((child, w));
+                born.push(child);
             }
         }
         // Their closest hits, sixteen at a time.
@@ -212,7 +202,6 @@ pub(super) fn li_at_hits(
             let found = scene.lane_hits(&lanes, &closest, chunk.len());
             for (j, &c) in chunk.iter().enumerate() {
                 nodes[c].hit = found[j];
-                nodes[c].specular = found[j].is_some();
             }
         }
         frontier = born;
@@ -237,7 +226,8 @@ fn sum_tree(
     let Some(hit) = &node.hit else {
         return scene.background;
     };
-    if !node.specular {
+    // A mirror or glass has a split (`specular_split`), any other material direct lighting.
+    if !scene.material(hit).is_delta() {
         return direct_lighting(scene, &node.ray, hit, light_samples, sampler, counters);
     }
     if node.depth >= max_depth {
