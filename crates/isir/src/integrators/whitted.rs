@@ -130,15 +130,10 @@ impl SplitLanes {
             for axis in 0..3 {
                 s.refracted[axis][k] = t[axis] * rt;
             }
-            refracts[k] = glass & (1 << k) != 0 && !(sin2_t >= 1.0);
+            // `refract`'s `None` only where `sin2_t >= 1` (a NaN goes on, as there).
+            refracts[k] = glass & (1 << k) != 0 && (sin2_t < 1.0 || sin2_t.is_nan());
             // `fresnel_dielectric(cos_o, eta)`.
-            let ci = if cos_o < 0.0 {
-                0.0
-            } else if cos_o > 1.0 {
-                1.0
-            } else {
-                cos_o
-            };
+            let ci = cos_o.clamp(0.0, 1.0);
             let f2 = (1.0 - ci * ci) / (e * e);
             let ct = (1.0 - f2).sqrt();
             let rs = (ci - e * ct) / (ci + e * ct);
