@@ -113,23 +113,47 @@ impl Sampler {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f,avx512dq,avx512vl")]
     fn fill_2d_avx512(&mut self, out: &mut [glam::Vec2]) {
+        use std::arch::x86_64::{
+            _mm256_cvtepi32_ps, _mm256_mul_ps, _mm256_rorv_epi32, _mm256_set1_ps, _mm256_srli_epi32, _mm256_storeu_ps, _mm512_add_epi64,
+            _mm512_castsi512_si128, _mm512_cvtepi64_epi32, _mm512_loadu_si512, _mm512_mullo_epi64, _mm512_set1_epi64, _mm512_srli_epi64,
+            _mm512_storeu_si512, _mm512_xor_si512, _mm_cvtsi128_si64,
+        };
         const J: [(u64, u64); 9] = [jump(0), jump(1), jump(2), jump(3), jump(4), jump(5), jump(6), jump(7), jump(8)];
-        let (s, inc) = (self.state, self.inc);
-        let mut st: [u64; 8] = std::array::from_fn(|k| J[k].0.wrapping_mul(s).wrapping_add(inc.wrapping_mul(J[k].1)));
-        let c8 = inc.wrapping_mul(J[8].1);
+        const J_MUL: [u64; 8] = [J[0].0, J[1].0, J[2].0, J[3].0, J[4].0, J[5].0, J[6].0, J[7].0];
+        const J_SUM: [u64; 8] = [J[0].1, J[1].1, J[2].1, J[3].1, J[4].1, J[5].1, J[6].1, J[7].1];
+        // PERF: the eight chains' states set up and read back in registers (written as
+        // arrays, LLVM assembled them lane by lane: half of the function's instructions
+        // for sixteen pairs).
+        // SAFETY: 64-byte loads from eight-`u64` arrays.
+        let (j_mul, j_sum) = unsafe { (_mm512_loadu_si512(J_MUL.as_ptr().cast()), _mm512_loadu_si512(J_SUM.as_ptr().cast())) };
+        let inc = _mm512_set1_epi64(self.inc as i64);
+        // Chain `k` starts `k` steps on: `MUL^k·s + inc·SUM_k`.
+        let mut st = _mm512_add_epi64(_mm512_mullo_epi64(_mm512_set1_epi64(self.state as i64), j_mul), _mm512_mullo_epi64(inc, j_sum));
+        let (m8, c8) = (_mm512_set1_epi64(J[8].0 as i64), _mm512_set1_epi64(self.inc.wrapping_mul(J[8].1) as i64));
+        let scale = _mm256_set1_ps(1.0 / (1u32 << 24) as f32);
         let mut fours = out.chunks_exact_mut(4);
         for four in &mut fours {
-            let f: [f32; 8] = std::array::from_fn(|k| unit(output(st[k])));
-            for (i, pair) in four.iter_mut().enumerate() {
-                *pair = glam::Vec2::new(f[2 * i], f[2 * i + 1]);
-            }
-            st = st.map(|x| x.wrapping_mul(J[8].0).wrapping_add(c8));
+            // `output`: XSH RR of the eight states, then `unit`.
+            let xsh = _mm512_cvtepi64_epi32(_mm512_srli_epi64::<27>(_mm512_xor_si512(_mm512_srli_epi64::<18>(st), st)));
+            let x = _mm256_rorv_epi32(xsh, _mm512_cvtepi64_epi32(_mm512_srli_epi64::<59>(st)));
+            let f = _mm256_mul_ps(scale, _mm256_cvtepi32_ps(_mm256_srli_epi32::<8>(x)));
+            // SAFETY: `four` is four `Vec2`s, eight contiguous `f32`s (`Vec2` is
+            // `repr(C)` x then y): pair `i` gets chains `2i` and `2i + 1`.
+            unsafe { _mm256_storeu_ps(four.as_mut_ptr().cast(), f) };
+            st = _mm512_add_epi64(_mm512_mullo_epi64(st, m8), c8);
         }
         let rest = fours.into_remainder();
-        for (i, pair) in rest.iter_mut().enumerate() {
-            *pair = glam::Vec2::new(unit(output(st[2 * i])), unit(output(st[2 * i + 1])));
+        if rest.is_empty() {
+            self.state = _mm_cvtsi128_si64(_mm512_castsi512_si128(st)) as u64;
+            return;
         }
-        self.state = st[2 * rest.len()];
+        let mut lanes = [0u64; 8];
+        // SAFETY: a 64-byte store into an eight-`u64` array.
+        unsafe { _mm512_storeu_si512(lanes.as_mut_ptr().cast(), st) };
+        for (i, pair) in rest.iter_mut().enumerate() {
+            *pair = glam::Vec2::new(unit(output(lanes[2 * i])), unit(output(lanes[2 * i + 1])));
+        }
+        self.state = lanes[2 * rest.len()];
     }
 
     /// [`Sampler::fill_2d`] without AVX-512: four chains of four steps.
