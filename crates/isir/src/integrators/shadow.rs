@@ -541,15 +541,25 @@ mod tests {
         };
         let ls = light.sampler();
         let (mut live, mut dead) = (0, 0);
-        for _ in 0..6000 {
+        for round in 0..6000 {
             let mut r = || rng.next_f32() * 8.0 - 4.0;
-            let p = Vec3::new(r(), r(), r());
-            let ng = Vec3::new(r(), r(), r()).normalize();
-            let normal = (ng + 0.2 * Vec3::new(r(), r(), r())).normalize();
+            let mut p = Vec3::new(r(), r(), r());
+            let mut ng = Vec3::new(r(), r(), r()).normalize();
+            let mut normal = (ng + 0.2 * Vec3::new(r(), r(), r())).normalize();
             let err = Vec3::splat(r().abs() * 1e-6);
+            // Axis-aligned normals, and points on the light's corner row (zeros and signed
+            // zeros in the dot products).
+            if round % 5 == 0 {
+                (ng, normal) = ([Vec3::Y, -Vec3::X, Vec3::Z][round % 3], [-Vec3::Y, Vec3::X, -Vec3::Z][round % 3]);
+                p.y = [3.0, 0.0, -1.0][round % 3];
+            }
             let mut xi = [Vec2::ZERO; BATCH];
             for x in &mut xi {
                 *x = Vec2::new(rng.next_f32(), rng.next_f32());
+            }
+            // A hit on the light's corner, and a sample there (a zero direction: NaN).
+            if round % 7 == 0 {
+                (p, xi[3]) = (Vec3::new(-1.0, 3.0, -1.0), Vec2::ZERO);
             }
             let mut rays = ShadowRays::new(p, err, ng);
             let batch = QuadBatch::new(&ls, &rays, normal, &xi, BATCH);
@@ -558,22 +568,33 @@ mod tests {
             portable.fill_portable::<BATCH>(&ls, &rays, normal, &xi);
             // Eight lanes (eight samples or fewer): the first eight of sixteen, no more.
             let half = QuadBatch::new(&ls, &rays, normal, &xi, BATCH / 2);
+            // Every array, bit for bit (the AVX2 intrinsics against the portable loops).
+            let bits = |b: &QuadBatch| {
+                let rows = [b.point, b.wi, b.radiance, b.rays.o, b.rays.d];
+                let mut v: Vec<u32> = rows.iter().flatten().flatten().map(|x| x.to_bits()).collect();
+                v.extend([b.distance, b.pdf, b.cos, b.rays.t_max].iter().flatten().map(|x| x.to_bits()));
+                v.extend(b.live.iter().chain(&b.has_ray).map(|&x| u32::from(x)));
+                v
+            };
+            assert!(bits(&portable) == bits(&batch), "{p} {ng} {normal}");
+            // Equal as printed: NaNs (a sample on the hit point itself) equal, signed zeros not.
+            let same = |a: &dyn std::fmt::Debug, b: &dyn std::fmt::Debug| assert_eq!(format!("{a:?}"), format!("{b:?}"));
             for j in 0..BATCH {
-                assert_eq!(
-                    (portable.sample(j), portable.shadow_ray(j), portable.live[j]),
-                    (batch.sample(j), batch.shadow_ray(j), batch.live[j])
+                same(
+                    &(portable.sample(j), portable.shadow_ray(j), portable.live[j]),
+                    &(batch.sample(j), batch.shadow_ray(j), batch.live[j]),
                 );
                 if j < BATCH / 2 {
-                    assert_eq!(
-                        (half.sample(j), half.shadow_ray(j), half.live[j], half.has_ray[j]),
-                        (batch.sample(j), batch.shadow_ray(j), batch.live[j], batch.has_ray[j])
+                    same(
+                        &(half.sample(j), half.shadow_ray(j), half.live[j], half.has_ray[j]),
+                        &(batch.sample(j), batch.shadow_ray(j), batch.live[j], batch.has_ray[j]),
                     );
                     assert_eq!(half.cos[j].to_bits(), batch.cos[j].to_bits());
                 } else {
                     assert!(!half.live[j] && !half.has_ray[j]);
                 }
                 let s = ls.sample(p, xi[j]);
-                assert_eq!(batch.sample(j), s);
+                same(&batch.sample(j), &s);
                 let cos = s.direction.dot(normal).max(0.0);
                 assert_eq!(batch.cos[j].to_bits(), cos.to_bits());
                 let ray = rays.to(s.point);
@@ -581,7 +602,7 @@ mod tests {
                 let expected = cos != 0.0 && s.radiance != Color::ZERO && ray.is_some();
                 assert_eq!(batch.live[j], expected);
                 if let Some(ray) = ray {
-                    assert_eq!(batch.shadow_ray(j), ray);
+                    same(&batch.shadow_ray(j), &ray);
                 }
                 if expected {
                     live += 1;
