@@ -97,9 +97,9 @@ impl QuadBatch {
             return;
         }
         if count <= BATCH / 2 {
-            self.fill_portable::<{ BATCH / 2 }>(light, rays, normal, xi);
+            self.fill_portable::<{ BATCH / 2 }>(light, rays, rays.both_origins(), normal, xi);
         } else {
-            self.fill_portable::<BATCH>(light, rays, normal, xi);
+            self.fill_portable::<BATCH>(light, rays, rays.both_origins(), normal, xi);
         }
     }
 
@@ -108,18 +108,26 @@ impl QuadBatch {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     fn fill_avx2<const W: usize>(&mut self, light: &LightSampler, rays: &ShadowRays, normal: Vec3, xi: &[Vec2; BATCH]) {
-        self.fill_portable::<W>(light, rays, normal, xi);
+        self.fill_portable::<W>(light, rays, rays.both_origins_avx2(), normal, xi);
     }
 
-    /// The first `W` lanes (`W` at most [`BATCH`]; the others are left as they are).
+    /// The first `W` lanes (`W` at most [`BATCH`]; the others are left as they are);
+    /// `origins` are `rays.both_origins()`.
     #[inline(always)]
     #[allow(clippy::needless_range_loop)] // one index into many arrays: the loops vectorise
-    fn fill_portable<const W: usize>(&mut self, light: &LightSampler, rays: &ShadowRays, normal: Vec3, xi: &[Vec2; BATCH]) {
+    fn fill_portable<const W: usize>(
+        &mut self,
+        light: &LightSampler,
+        rays: &ShadowRays,
+        origins: [Vec3; 2],
+        normal: Vec3,
+        xi: &[Vec2; BATCH],
+    ) {
         let LightSampler::Quad { corner, u, v, normal: ln, area, emitted, .. } = *light else {
             unreachable!("quad lights only");
         };
         let (x, ng) = rays.surface();
-        let [front, back] = rays.both_origins();
+        let [front, back] = origins;
         let b = self;
         // The operations of `LightSampler::sample`, `Vec3::dot`, `Vec3::length` and
         // `ShadowRays::to`, in their order, so every float is the same. Stage by stage
@@ -565,7 +573,7 @@ mod tests {
             let batch = QuadBatch::new(&ls, &rays, normal, &xi, BATCH);
             // Both code paths where this CPU has both.
             let mut portable = QuadBatch::EMPTY;
-            portable.fill_portable::<BATCH>(&ls, &rays, normal, &xi);
+            portable.fill_portable::<BATCH>(&ls, &rays, rays.both_origins(), normal, &xi);
             // Eight lanes (eight samples or fewer): the first eight of sixteen, no more.
             let half = QuadBatch::new(&ls, &rays, normal, &xi, BATCH / 2);
             // Every array, bit for bit (the AVX2 intrinsics against the portable loops).
