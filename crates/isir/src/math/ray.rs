@@ -371,6 +371,9 @@ impl ShadowRays {
     /// `round_away` as selects, the same floats.
     /// PERF: as two `offset_along`s, six branches on the normal's signs and about 75
     /// instructions of each quad batch's set-up.
+    ///
+    /// # Safety
+    /// Call it only where the CPU has AVX2 (`is_x86_feature_detected!("avx2")`).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     #[inline]
