@@ -576,7 +576,8 @@ mod tests {
             portable.fill_portable::<BATCH>(&ls, &rays, rays.both_origins(), normal, &xi);
             // Eight lanes (eight samples or fewer): the first eight of sixteen, no more.
             let half = QuadBatch::new(&ls, &rays, normal, &xi, BATCH / 2);
-            // Every array, bit for bit (the AVX2 intrinsics against the portable loops).
+            // Every array, bit for bit (the AVX2 build, its offset origins in intrinsics,
+            // against the portable loops).
             let bits = |b: &QuadBatch| {
                 let rows = [b.point, b.wi, b.radiance, b.rays.o, b.rays.d];
                 let mut v: Vec<u32> = rows.iter().flatten().flatten().map(|x| x.to_bits()).collect();

@@ -244,7 +244,7 @@ struct Node {
 pub(super) fn li_at_hits(
     scene: &Scene,
     rays: &crate::math::ray::RayLanes,
-    hits: &[Option<Hit>; crate::math::ray::LANES],
+    hits: &[Option<Hit>; LANES],
     mask: u32,
     light_samples: u32,
     max_depth: u32,
@@ -252,7 +252,7 @@ pub(super) fn li_at_hits(
     counters: &mut RayCounters,
     out: &mut [Color],
 ) {
-    use crate::math::ray::{lanes_of, RayLanes, RaySegment, LANES};
+    use crate::math::ray::{lanes_of, RayLanes, RaySegment};
     let mut nodes: Vec<Node> = Vec::new();
     let mut roots = [usize::MAX; LANES];
     let mut frontier = Vec::new();

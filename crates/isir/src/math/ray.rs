@@ -378,7 +378,7 @@ impl ShadowRays {
     #[target_feature(enable = "avx2")]
     #[inline]
     #[must_use]
-    pub fn both_origins_avx2(&self) -> [Vec3; 2] {
+    pub(crate) fn both_origins_avx2(&self) -> [Vec3; 2] {
         use std::arch::x86_64::{
             __m256, _mm256_add_epi32, _mm256_add_ps, _mm256_blendv_epi8, _mm256_blendv_ps, _mm256_castps_si256, _mm256_castsi256_ps,
             _mm256_cmp_ps, _mm256_mul_ps, _mm256_or_ps, _mm256_set1_epi32, _mm256_set1_ps, _mm256_setr_ps, _mm256_setzero_ps,
