@@ -337,6 +337,25 @@ mod tests {
         }
     }
 
+    /// The image `r` renders one sample at a time, after checking that samples in lanes
+    /// give it pixel for pixel, with the same ray and sample counts (`what` names the case).
+    fn lanes_match_one_at_a_time(
+        desc: &crate::scenes::SceneDescription,
+        scene: &Scene,
+        integrator: &Integrator,
+        r: Renderer,
+        what: &str,
+    ) -> Image {
+        let one = Renderer { lanes: false, ..r };
+        let camera = desc.camera.build(one.aspect());
+        let many = Renderer { lanes: true, ..one.clone() };
+        let (a, sa) = one.render(scene, &camera, integrator);
+        let (b, sb) = many.render(scene, &camera, integrator);
+        assert!(a.pixels == b.pixels, "{what}, {integrator:?}, {} spp", one.spp);
+        assert_eq!((sa.rays, sa.samples), (sb.rays, sb.samples), "{what}, {integrator:?}");
+        a
+    }
+
     /// Whitted's mirror and glass recursion in lanes (breadth first, then summed depth
     /// first) gives the image of one sample at a time where branches leave the scene (the
     /// background), stop at `max_depth` (1 and 2) or are pruned by their weight: the TP6
@@ -350,14 +369,8 @@ mod tests {
         let mut background = 0;
         for (max_depth, spp) in [(1, 3), (2, 5), (5, 16)] {
             let integrator = Integrator::Whitted { light_samples: 1, max_depth };
-            let one = Renderer { lanes: false, ..Renderer::new(41, 29).spp(spp).seed(9) };
-            let camera = desc.camera.build(one.aspect());
-            let many = Renderer { lanes: true, ..one.clone() };
-            let (a, sa) = one.render(&scene, &camera, &integrator);
-            let (b, sb) = many.render(&scene, &camera, &integrator);
-            assert!(a.pixels == b.pixels, "max_depth {max_depth}");
-            assert_eq!((sa.rays, sa.samples), (sb.rays, sb.samples));
-            background += a.pixels.iter().filter(|p| **p == desc.background).count();
+            let image = lanes_match_one_at_a_time(&desc, &scene, &integrator, Renderer::new(41, 29).spp(spp).seed(9), "whitted");
+            background += image.pixels.iter().filter(|p| **p == desc.background).count();
         }
         assert!(background > 100, "{background} background pixels");
     }
@@ -384,13 +397,7 @@ mod tests {
             scenes += 1;
             for (i, integrator) in integrators.into_iter().enumerate() {
                 let spp = [1, 3, 16, 5, 7][(i + name.len()) % 5];
-                let one = Renderer { lanes: false, ..Renderer::new(37, 23).spp(spp).seed(4) };
-                let camera = desc.camera.build(one.aspect());
-                let many = Renderer { lanes: true, ..one.clone() };
-                let (a, sa) = one.render(&scene, &camera, &integrator);
-                let (b, sb) = many.render(&scene, &camera, &integrator);
-                assert!(a.pixels == b.pixels, "{name}, {integrator:?}, {spp} spp");
-                assert_eq!((sa.rays, sa.samples), (sb.rays, sb.samples), "{name}");
+                lanes_match_one_at_a_time(&desc, &scene, &integrator, Renderer::new(37, 23).spp(spp).seed(4), name);
             }
         }
         assert!(scenes >= 30, "{scenes} scenes");

@@ -8,7 +8,7 @@ use super::RayCounters;
 use crate::geometry::Hit;
 use crate::materials::{fresnel_dielectric, reflect, refract, Material};
 use crate::math::color::{Color, BLACK};
-use crate::math::ray::{Ray, LANES};
+use crate::math::ray::{lanes_of, Ray, RayLanes, LANES};
 use crate::math::sampling::Sampler;
 use crate::scene::Scene;
 use glam::Vec3;
@@ -243,7 +243,7 @@ struct Node {
 #[allow(clippy::too_many_arguments)]
 pub(super) fn li_at_hits(
     scene: &Scene,
-    rays: &crate::math::ray::RayLanes,
+    rays: &RayLanes,
     hits: &[Option<Hit>; LANES],
     mask: u32,
     light_samples: u32,
@@ -252,7 +252,6 @@ pub(super) fn li_at_hits(
     counters: &mut RayCounters,
     out: &mut [Color],
 ) {
-    use crate::math::ray::{lanes_of, RayLanes, RaySegment};
     let mut nodes: Vec<Node> = Vec::new();
     let mut roots = [usize::MAX; LANES];
     let mut frontier = Vec::new();
@@ -303,11 +302,10 @@ pub(super) fn li_at_hits(
         }
         // Their closest hits, sixteen at a time.
         for chunk in born.chunks(LANES) {
-            let segments: Vec<RaySegment> = chunk
-                .iter()
-                .map(|&c| RaySegment { origin: nodes[c].ray.origin, t_min: 0.0, direction: nodes[c].ray.direction, t_max: f32::INFINITY })
-                .collect();
-            let lanes = RayLanes::new(&segments);
+            let mut lanes = RayLanes::EMPTY;
+            for (j, &c) in chunk.iter().enumerate() {
+                lanes.set(j, nodes[c].ray.origin, nodes[c].ray.direction, 0.0, f32::INFINITY);
+            }
             let closest = scene.intersect_lanes(&lanes, chunk.len());
             let found = scene.lane_hits(&lanes, &closest, chunk.len());
             for (j, &c) in chunk.iter().enumerate() {
@@ -353,7 +351,6 @@ fn sum_tree(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::math::ray::lanes_of;
 
     /// `SplitLanes` (the AVX2 build where the CPU has it, and the portable one) gives
     /// `specular_split`'s splits bit for bit: mirrors and glass entered and left, past the
