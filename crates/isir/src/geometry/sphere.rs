@@ -91,7 +91,7 @@ impl Sphere {
     /// Closest hits of the rays `rays`: each lane `k` whose ray meets the sphere in
     /// `[t_min[k], t_best[k])` gets the nearest such `t` in `t_best[k]` and its bit set in
     /// the result. The `t` of [`Sphere::intersect`], by the same operations lane by lane,
-    /// vectorised.
+    /// vectorised. `t_best` holds no NaN (see [`crate::geometry::Plane::closest_lanes`]).
     /// PERF: the conditions are joined with `&` and `|`, not `&&` and `||`: the
     /// short-circuits became branches and LLVM kept the loop scalar (tp4-sphere, 64 spp:
     /// 0.99 s → 0.87 s with both shapes' lane loops vectorised).
@@ -109,7 +109,9 @@ impl Sphere {
             let (in0, in1) = ((t0 >= lo) & (t0 < hi), (t1 >= lo) & (t1 < hi));
             hit[k] = ok & (in0 | in1);
             let t = if in0 { t0 } else { t1 };
-            t_best[k] = if hit[k] { t } else { hi };
+            // A minimum, not a select of the old best: see `Plane::closest_lanes`.
+            let cand = if hit[k] { t } else { f32::INFINITY };
+            t_best[k] = hi.min(cand);
         }
         lane_mask(&hit)
     }

@@ -87,8 +87,11 @@ impl Scene {
             }
             return hits;
         }
-        // An interval no `t` is in: `t < -∞` never holds.
-        let mut t_best: [f32; LANES] = std::array::from_fn(|k| if valid[k] { rays.t_max[k] } else { f32::NEG_INFINITY });
+        // An interval no `t` is in: `t < -∞` never holds. A NaN `t_max` is such an interval
+        // too (`t < NaN` never holds), given as -∞: the shapes' lane loops keep the best
+        // as a minimum, which would replace a NaN.
+        let mut t_best: [f32; LANES] =
+            std::array::from_fn(|k| if valid[k] & !rays.t_max[k].is_nan() { rays.t_max[k] } else { f32::NEG_INFINITY });
         for (i, object) in self.objects.iter().enumerate() {
             let mark = |mask: u32, hits: &mut LaneHits| {
                 let mut m = mask;
@@ -443,8 +446,8 @@ mod tests {
     }
 
     /// Every lane finds the hit of `Scene::intersect`, field for field, on scenes of
-    /// spheres, planes, meshes, an implicit surface and a top-level BVH, with invalid rays
-    /// and partial groups among them.
+    /// spheres, planes, meshes, an implicit surface and a top-level BVH, with invalid rays,
+    /// NaN intervals and partial groups among them.
     #[test]
     fn lanes_find_the_hits_of_intersect() {
         let mut many = scenes::builtin("tp2-plane-point").unwrap();
@@ -475,7 +478,11 @@ mod tests {
                             1 => r.origin.y = f32::NAN,
                             _ => {}
                         }
-                        let t_max = if k % 4 == 1 { 5.0 } else { f32::INFINITY };
+                        let t_max = match k % 8 {
+                            1 | 5 => 5.0,
+                            3 => f32::NAN,
+                            _ => f32::INFINITY,
+                        };
                         RaySegment { origin: r.origin, t_min: 0.0, direction: r.direction, t_max }
                     })
                     .collect();
