@@ -123,9 +123,10 @@ fn path_lanes(
                 }
             }
         }
+        let back = cur.outgoing();
         for k in lanes_of(active) {
             if paths[k].goes_on(scene, hits[k].as_ref(), max_depth) {
-                wo[k] = -Vec3::new(cur.d[0][k], cur.d[1][k], cur.d[2][k]).normalize();
+                wo[k] = Vec3::new(back[0][k], back[1][k], back[2][k]);
             } else {
                 ended |= 1 << k;
             }
