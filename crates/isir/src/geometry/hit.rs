@@ -42,6 +42,23 @@ pub struct Hit {
 }
 
 impl Hit {
+    /// A hit of zeros everywhere (no surface): what lane loops read where a lane has no
+    /// hit, instead of branching.
+    pub const ZERO: Hit = Hit {
+        t: 0.0,
+        point: Vec3::ZERO,
+        point_error: Vec3::ZERO,
+        normal: Vec3::ZERO,
+        geometric_normal: Vec3::ZERO,
+        front_face: false,
+        object: 0,
+        prim: 0,
+        u: 0.0,
+        v: 0.0,
+        uv: glam::Vec2::ZERO,
+        material: 0,
+    };
+
     /// The ray leaving the hit in direction `w`, its origin offset off the surface by the
     /// point's error bound (pbrt-v4 `SpawnRay`), `t` from 0: it cannot hit this surface at
     /// the hit point again.
