@@ -728,9 +728,6 @@ mod tests {
         }
     }
 
-    /// `spawn_lanes` gives `spawn_ray`'s rays bit for bit in the lanes asked for (both code
-    /// paths where the CPU has AVX2: points known exactly, directions along the surface,
-    /// on either side), zero rays in the others.
     /// `outgoing` is `-d.normalize()` lane by lane, bit for bit, in the AVX2 build and the
     /// portable one: tiny, huge, axis-aligned, zero and NaN directions.
     #[test]
@@ -760,6 +757,9 @@ mod tests {
         }
     }
 
+    /// `spawn_lanes` gives `spawn_ray`'s rays bit for bit in the lanes asked for (both code
+    /// paths where the CPU has AVX2: points known exactly, directions along the surface,
+    /// on either side), zero rays in the others.
     #[test]
     fn spawned_lanes_are_the_rays_of_spawn_ray() {
         let mut rng = crate::math::sampling::Sampler::from_seed(11);
