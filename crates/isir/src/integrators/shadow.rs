@@ -642,20 +642,7 @@ mod tests {
     /// A hit at `point` (error bound `point_error`) with shading normal `normal` and
     /// geometric normal `ng`.
     fn test_hit(point: Vec3, point_error: Vec3, normal: Vec3, ng: Vec3) -> Hit {
-        Hit {
-            t: 1.0,
-            point,
-            point_error,
-            normal,
-            geometric_normal: ng,
-            front_face: true,
-            object: 0,
-            prim: 0,
-            u: 0.0,
-            v: 0.0,
-            uv: Vec2::ZERO,
-            material: 0,
-        }
+        Hit { t: 1.0, point, point_error, normal, geometric_normal: ng, front_face: true, ..Hit::ZERO }
     }
 
     /// A batch's shading is `Material::shade` of each sample, bit for bit, for every kind

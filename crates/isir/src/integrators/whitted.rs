@@ -378,20 +378,7 @@ mod tests {
                     _ => {}
                 }
                 let material = if k % 4 == 0 { Material::Mirror } else { Material::Transparent { ior: [1.3, 1.0, 2.4, 0.7][k % 4] } };
-                let hit = Hit {
-                    t: 1.0,
-                    point: Vec3::ZERO,
-                    point_error: Vec3::ZERO,
-                    normal,
-                    geometric_normal: normal,
-                    front_face: (round + k) % 2 == 0,
-                    object: 0,
-                    prim: 0,
-                    u: 0.0,
-                    v: 0.0,
-                    uv: glam::Vec2::ZERO,
-                    material: 0,
-                };
+                let hit = Hit { t: 1.0, normal, geometric_normal: normal, front_face: (round + k) % 2 == 0, ..Hit::ZERO };
                 if let Some(Some(e)) = specular_eta(&material, &hit) {
                     (glass, eta[k]) = (glass | 1 << k, e);
                 }
