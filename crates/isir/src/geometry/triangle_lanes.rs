@@ -60,7 +60,7 @@ impl TriangleLanes {
         // PERF: an AND with bits the compiler cannot see are all or nothing (`black_box`):
         // as a select of 0.0 it wrote every row as two masked stores (`vmaskmovps`, slow on
         // AMD).
-        let mut keep = [0u32; LANES];
+        let mut normal_kept = [0u32; LANES];
         for j in 0..LANES {
             let n = [
                 e1[1][j] * e2[2][j] - e2[1][j] * e1[2][j],
@@ -71,15 +71,15 @@ impl TriangleLanes {
             let m = max(n[0].abs(), max(n[1].abs(), n[2].abs()));
             let s = [n[0] / m, n[1] / m, n[2] / m];
             let rcp = 1.0 / ((s[0] * s[0]) + (s[1] * s[1]) + (s[2] * s[2])).sqrt();
-            keep[j] = 0u32.wrapping_sub(u32::from(rcp.is_finite() & (rcp > 0.0)));
+            normal_kept[j] = all_bits(rcp.is_finite() & (rcp > 0.0));
             for k in 0..3 {
                 out.face[k][j] = s[k] * rcp;
             }
         }
-        let mut keep = std::hint::black_box(keep);
+        let normal_kept = std::hint::black_box(normal_kept);
         for k in 0..3 {
             for j in 0..LANES {
-                out.face[k][j] = f32::from_bits(out.face[k][j].to_bits() & keep[j]);
+                out.face[k][j] = kept(out.face[k][j], normal_kept[j]);
             }
         }
         // ---- surface_point: the point from the barycentrics, its rounding bound, and the
@@ -95,16 +95,16 @@ impl TriangleLanes {
             }
         }
         // The band's height added to the bound on each axis, except on a flat triangle's
-        // lanes (zeroed by `keep`, as the normal's above: `+ 0.0` leaves the bound, never
-        // -0, bit for bit). PERF: as a select of the old bound, LLVM wrote the sums with
-        // masked loads and stores.
-        let mut along = [[0f32; LANES]; 3];
+        // lanes (zeroed as the normal's above: `+ 0.0` leaves the bound, never -0, bit for
+        // bit). PERF: as a select of the old bound, LLVM wrote the sums with masked loads
+        // and stores.
+        let (mut along, mut band_kept) = ([[0f32; LANES]; 3], [0u32; LANES]);
         for j in 0..LANES {
             let d1 = [f64::from(e1[0][j]), f64::from(e1[1][j]), f64::from(e1[2][j])];
             let d2 = [f64::from(e2[0][j]), f64::from(e2[1][j]), f64::from(e2[2][j])];
             let c = [d1[1] * d2[2] - d2[1] * d1[2], d1[2] * d2[0] - d2[2] * d1[0], d1[0] * d2[1] - d2[0] * d1[1]];
             let area2 = ((c[0] * c[0]) + (c[1] * c[1]) + (c[2] * c[2])).sqrt();
-            keep[j] = 0u32.wrapping_sub(u32::from((area2 != 0.0) & area2.is_finite()));
+            band_kept[j] = all_bits((area2 != 0.0) & area2.is_finite());
             let l1 = ((d1[0] * d1[0]) + (d1[1] * d1[1]) + (d1[2] * d1[2])).sqrt();
             let l2 = ((d2[0] * d2[0]) + (d2[1] * d2[1]) + (d2[2] * d2[2])).sqrt();
             let height = g8 * 2.0 * l1.max(l2) * (l1 / area2) * l2;
@@ -112,14 +112,26 @@ impl TriangleLanes {
                 along[k][j] = ((c[k] / area2).abs() * height) as f32;
             }
         }
-        let keep = std::hint::black_box(keep);
+        let band_kept = std::hint::black_box(band_kept);
         for k in 0..3 {
             for j in 0..LANES {
-                out.error[k][j] += f32::from_bits(along[k][j].to_bits() & keep[j]);
+                out.error[k][j] += kept(along[k][j], band_kept[j]);
             }
         }
         out
     }
+}
+
+/// All bits set where `keep`, none elsewhere: a lane's mask for [`kept`].
+#[inline(always)]
+fn all_bits(keep: bool) -> u32 {
+    0u32.wrapping_sub(u32::from(keep))
+}
+
+/// `x` where `mask` has all its bits set, `+0.0` where it has none.
+#[inline(always)]
+fn kept(x: f32, mask: u32) -> f32 {
+    f32::from_bits(x.to_bits() & mask)
 }
 
 impl TriangleMesh {

@@ -165,9 +165,7 @@ impl RayLanes {
         }
         wo
     }
-}
 
-impl RayLanes {
     /// The lanes whose ray [`Ray::is_valid`]: finite origin and direction, direction not
     /// zero.
     #[inline(always)]
