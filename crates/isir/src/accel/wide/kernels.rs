@@ -405,11 +405,18 @@ pub(super) unsafe fn box_test_avx2(node: &Node8, pre: &RayPre, t_min: f32, t_max
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
 pub(super) fn tri4_sse<const ANY: bool>(tri: &Tri4, pre: &RayPre, t_min: f32, t_max: f32) -> Option<MeshHit> {
+    tri4_sse_from::<ANY>(tri, pre.origin, pre.dir, t_min, t_max)
+}
+
+/// [`tri4_sse`] of the ray from `origin` in direction `dir` (what it reads of a [`RayPre`]).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+pub(crate) fn tri4_sse_from<const ANY: bool>(tri: &Tri4, origin: Vec3, dir: Vec3, t_min: f32, t_max: f32) -> Option<MeshHit> {
     use std::arch::x86_64::*;
     // SAFETY: SSE is part of x86-64; `Tri4` is 16-byte aligned so the aligned loads are valid.
     unsafe {
         let ld = |a: &[f32; 4]| _mm_load_ps(a.as_ptr());
-        let (dx, dy, dz) = (_mm_set1_ps(pre.dir.x), _mm_set1_ps(pre.dir.y), _mm_set1_ps(pre.dir.z));
+        let (dx, dy, dz) = (_mm_set1_ps(dir.x), _mm_set1_ps(dir.y), _mm_set1_ps(dir.z));
         let (e1x, e1y, e1z) = (ld(&tri.e1[0]), ld(&tri.e1[1]), ld(&tri.e1[2]));
         let (e2x, e2y, e2z) = (ld(&tri.e2[0]), ld(&tri.e2[1]), ld(&tri.e2[2]));
         let mul = |a, b| _mm_mul_ps(a, b);
@@ -422,9 +429,9 @@ pub(super) fn tri4_sse<const ANY: bool>(tri: &Tri4, pre: &RayPre, t_min: f32, t_
         let det = add(add(mul(e1x, px), mul(e1y, py)), mul(e1z, pz));
         let inv = _mm_div_ps(_mm_set1_ps(1.0), det);
         // s = o - v0
-        let sx = sub(_mm_set1_ps(pre.origin.x), ld(&tri.v0[0]));
-        let sy = sub(_mm_set1_ps(pre.origin.y), ld(&tri.v0[1]));
-        let sz = sub(_mm_set1_ps(pre.origin.z), ld(&tri.v0[2]));
+        let sx = sub(_mm_set1_ps(origin.x), ld(&tri.v0[0]));
+        let sy = sub(_mm_set1_ps(origin.y), ld(&tri.v0[1]));
+        let sz = sub(_mm_set1_ps(origin.z), ld(&tri.v0[2]));
         let u = mul(add(add(mul(sx, px), mul(sy, py)), mul(sz, pz)), inv);
         // q = s × e1
         let qx = sub(mul(sy, e1z), mul(sz, e1y));

@@ -334,6 +334,27 @@ impl WideBvh {
     }
 }
 
+impl WideBvh {
+    /// The closest hit of one ray among the triangles of the leaf `code`, in
+    /// `[t_min, t_max)`: the single rays' SSE block test (the AVX-512 packets' leaves that
+    /// few rays reach).
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub(crate) fn leaf_closest_sse(&self, code: u32, ray: &Ray, t_min: f32, t_max: f32) -> Option<MeshHit> {
+        let mut best = None;
+        let mut t_best = t_max;
+        for b in leaf_blocks(code) {
+            // SAFETY: leaf codes index `tris` (`Collapse::convert` wrote them).
+            let tri = unsafe { self.tris.get_unchecked(b) };
+            if let Some(h) = kernels::tri4_sse_from::<false>(tri, ray.origin, ray.direction, t_min, t_best) {
+                t_best = h.t;
+                best = Some(h);
+            }
+        }
+        best
+    }
+}
+
 /// The triangle blocks a leaf's child code names.
 #[inline(always)]
 pub(crate) fn leaf_blocks(code: u32) -> std::ops::Range<usize> {
