@@ -357,10 +357,12 @@ impl TriangleMesh {
                 // array of every triangle to fault in, fill and read back (conference
                 // room build ~63 -> ~56 ms).
                 let valid: Vec<u32> = (0..self.triangles.len() as u32).filter(|&i| self.valid[i as usize]).collect();
-                let bvh = Bvh::build_sah(&valid, |i| self.triangle_box(i));
+                // The build's records and then the wide tree's blocks in one storage.
+                let mut storage = WideBvh::block_storage(valid.len());
+                let bvh = Bvh::build_sah_in(&valid, |i| self.triangle_box(i), &mut storage);
                 // PERF: the wide tree's cost comes free from the collapse; the binary
                 // tree's took a pass over it (~1 ms of the build).
-                let wide = WideBvh::from_bvh(&bvh, self);
+                let wide = WideBvh::from_bvh_in(&bvh, self, storage);
                 let cost = wide.sah_cost();
                 (MeshAccel::Wide(wide), cost)
             }

@@ -154,6 +154,20 @@ impl Bvh {
         Bvh { nodes, prim_indices }
     }
 
+    /// [`Bvh::build_sah`] with the build's records in the spare capacity of `storage`
+    /// (grown if short, left empty), for the caller to fill next with memory already
+    /// faulted in (the wide tree's blocks, [`crate::accel::wide::WideBvh::from_bvh_in`]).
+    /// `S` must be aligned to 16 bytes and a multiple of 32 bytes long (checked at
+    /// compile time).
+    pub(crate) fn build_sah_in<S>(indices: &[u32], box_of: impl Fn(u32) -> Aabb + Sync, storage: &mut Vec<S>) -> Bvh {
+        if indices.is_empty() {
+            storage.clear();
+            return Bvh::default();
+        }
+        let (nodes, prim_indices) = sah::build_sah_in(indices, box_of, storage);
+        Bvh { nodes, prim_indices }
+    }
+
     /// The root's box (empty for an empty BVH).
     #[must_use]
     pub fn bounds(&self) -> Aabb {

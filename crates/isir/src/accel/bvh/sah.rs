@@ -605,19 +605,44 @@ pub(super) fn build_sah_parallel(prims: &mut [PrimRef], b: &Bounds, first: u32, 
 
 /// The SAH build from primitive boxes (only the valid ones are passed in `indices`).
 pub(super) fn build_sah(indices: &[u32], box_of: impl Fn(u32) -> Aabb + Sync) -> (Vec<BvhNode>, Vec<u32>) {
+    build_sah_in::<PrimRef>(indices, box_of, &mut Vec::new())
+}
+
+/// [`build_sah`] with its records (32 bytes per primitive) in the spare capacity of
+/// `storage`, grown if it is short, and left there (`storage` stays empty): a caller that
+/// then fills `storage` reuses memory the records have already faulted in.
+/// PERF: the wide tree's triangle blocks are written there (`WideBvh::from_bvh_in`): on
+/// the 2-core Zen 4 VM a fresh page cost far more than writing it (10M triangles: the
+/// blocks' 421 MB took ~0.5 s of a 2.4 s build, most of it in the kernel zeroing pages).
+///
+/// # Panics
+/// If `S` is not aligned at least as a record or its size is not a whole number of
+/// records (checked at compile time).
+pub(crate) fn build_sah_in<S>(indices: &[u32], box_of: impl Fn(u32) -> Aabb + Sync, storage: &mut Vec<S>) -> (Vec<BvhNode>, Vec<u32>) {
     use rayon::prelude::*;
-    // PERF: the build's two large arrays (records and binary nodes) on ordinary pages; only
-    // the wide tree that rays walk goes on huge pages (`WideBvh::from_bvh`). These live for
-    // the build alone, and a huge page first touched can cost the kernel a compaction (THP
-    // `defrag` set to `madvise`, the common default) or, in a VM, the host's fault on fresh
-    // memory: on the 2-core Zen 4 VM the 10M-triangle build took 2.42 -> 2.19 s in a fresh
-    // process and 2.11 -> 1.85 s as the best of three (medians of 5), with these two on
-    // ordinary pages; the wide tree's arrays on ordinary pages too made both slower (the
-    // build 1.83 -> 1.98 s, random rays 2.5 -> 2.0 Mrays/s).
-    let mut prims: Vec<PrimRef> = Vec::with_capacity(indices.len());
-    indices.par_iter().map(|&i| PrimRef::new(i, &box_of(i))).collect_into_vec(&mut prims);
-    let bounds = Bounds::of(&prims);
-    let top = build_sah_parallel(&mut prims, &bounds, 0, 0);
+    use std::mem::{align_of, size_of, MaybeUninit};
+    const { assert!(align_of::<S>() >= align_of::<PrimRef>() && size_of::<S>().is_multiple_of(size_of::<PrimRef>()) && size_of::<S>() > 0) };
+    // PERF: the build's records on the pages the caller gave (`storage`) and its binary
+    // nodes on ordinary pages. A huge page first touched can cost the kernel a compaction
+    // (THP `defrag` set to `madvise`, the common default) or, in a VM, the host's fault on
+    // fresh memory: on the 2-core Zen 4 VM the 10M-triangle build took 2.42 -> 2.19 s in a
+    // fresh process and 2.11 -> 1.85 s as the best of three (medians of 5), with the
+    // records and nodes on ordinary pages, as long as the wide tree was in fresh memory of
+    // its own.
+    storage.clear();
+    storage.reserve((indices.len() * size_of::<PrimRef>()).div_ceil(size_of::<S>()));
+    let spare = storage.spare_capacity_mut();
+    // SAFETY: the spare capacity holds at least `indices.len()` records' bytes (reserved
+    // above), suitably aligned (checked at compile time), and is viewed as uninitialised
+    // records, which are written before they are read.
+    let records: &mut [MaybeUninit<PrimRef>] = unsafe { std::slice::from_raw_parts_mut(spare.as_mut_ptr().cast(), indices.len()) };
+    records.par_iter_mut().zip(indices.par_iter()).with_min_len(4096).for_each(|(r, &i)| {
+        r.write(PrimRef::new(i, &box_of(i)));
+    });
+    // SAFETY: every record was written just above.
+    let prims: &mut [PrimRef] = unsafe { &mut *(std::ptr::from_mut(records) as *mut [PrimRef]) };
+    let bounds = Bounds::of(prims);
+    let top = build_sah_parallel(prims, &bounds, 0, 0);
     let mut nodes = Vec::with_capacity(top.node_count());
     nodes.push(BvhNode::default());
     top.flatten(&mut nodes, 0);

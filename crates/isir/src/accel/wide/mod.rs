@@ -212,6 +212,20 @@ impl WideBvh {
     /// Collapse a binary BVH over `mesh`'s triangles.
     #[must_use]
     pub fn from_bvh(bvh: &Bvh, mesh: &impl Triangles) -> WideBvh {
+        WideBvh::from_bvh_in(bvh, mesh, Vec::new())
+    }
+
+    /// Room for the blocks of a tree of `triangles` triangles (an estimate: three to a
+    /// block), on huge pages: the storage [`Bvh::build_sah_in`] and
+    /// [`WideBvh::from_bvh_in`] share.
+    pub(crate) fn block_storage(triangles: usize) -> Vec<Tri4> {
+        crate::accel::memory::vec_on_huge_pages(triangles / 3 + 1)
+    }
+
+    /// [`WideBvh::from_bvh`] with the blocks written into `storage` (its capacity reused,
+    /// grown if short): the memory the SAH build's records have faulted in
+    /// ([`Bvh::build_sah_in`]).
+    pub(crate) fn from_bvh_in(bvh: &Bvh, mesh: &impl Triangles, storage: Vec<Tri4>) -> WideBvh {
         use rayon::prelude::*;
         let watertight = mesh.test() == TriangleTest::Watertight;
         let mut w =
@@ -233,7 +247,10 @@ impl WideBvh {
         assert!(c.depth * 7 + 8 <= STACK_SIZE, "wide BVH too deep ({}) for the traversal stack", c.depth);
         w.depth = c.depth;
         w.nodes = c.nodes;
-        w.tris = crate::accel::memory::vec_on_huge_pages(c.blocks.len());
+        w.tris = storage;
+        if w.tris.capacity() < c.blocks.len() {
+            w.tris = crate::accel::memory::vec_on_huge_pages(c.blocks.len());
+        }
         c.blocks.par_iter().with_min_len(1024).map(|prims| Tri4::new(mesh, prims, watertight)).collect_into_vec(&mut w.tris);
         w
     }

@@ -179,3 +179,39 @@ fn collapsed_nodes_bound_their_children_in_decreasing_area_order() {
         assert_eq!(count, u32::from(p % 50 != 0), "triangle {p}: degenerate ones never, the others once");
     }
 }
+
+/// The build's records in the blocks' storage (`Bvh::build_sah_in`, then
+/// `WideBvh::from_bvh_in`) give the tree of separate arrays, bit for bit: with the
+/// storage the mesh build makes, one too small for the records (grown), one too small for
+/// the blocks (replaced), and one holding an earlier tree's blocks.
+#[test]
+fn records_in_the_blocks_storage_give_the_same_tree() {
+    let bits = |w: &WideBvh| {
+        let nodes: Vec<u32> = w.nodes.iter().flat_map(|n| n.lo.iter().chain(&n.hi).flatten().map(|x| x.to_bits()).chain(n.child)).collect();
+        let tris: Vec<u32> =
+            w.tris.iter().flat_map(|t| t.v0.iter().chain(&t.e1).chain(&t.e2).flatten().map(|x| x.to_bits()).chain(t.prim)).collect();
+        (w.root, nodes, tris)
+    };
+    for (n, seed) in [(1, 5), (40, 6), (20_000, 7)] {
+        let mesh = random_mesh(n, seed);
+        let valid: Vec<u32> = (0..n as u32).filter(|i| i % 50 != 0).collect();
+        let box_of = |i: u32| {
+            let [a, b, c] = mesh.triangle_vertices(i);
+            crate::math::aabb::Aabb::new(a.min(b).min(c), a.max(b).max(c))
+        };
+        let want = bits(&WideBvh::from_bvh(&Bvh::build_sah(&valid, box_of), &mesh));
+        let earlier = WideBvh::from_bvh(&Bvh::build_sah(&(0..n as u32).rev().collect::<Vec<_>>(), box_of), &mesh).tris;
+        for (label, storage) in [
+            ("the mesh build's", WideBvh::block_storage(valid.len())),
+            ("empty", Vec::new()),
+            ("room for the records only", Vec::with_capacity(valid.len() / 5 + 1)),
+            ("an earlier tree's", earlier),
+        ] {
+            let mut storage = storage;
+            let bvh = Bvh::build_sah_in(&valid, box_of, &mut storage);
+            assert!(storage.is_empty(), "{label}: the storage is left empty");
+            let got = bits(&WideBvh::from_bvh_in(&bvh, &mesh, storage));
+            assert!(got == want, "{n} triangles, {label} storage: another tree");
+        }
+    }
+}
