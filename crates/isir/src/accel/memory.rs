@@ -37,6 +37,34 @@ fn advise_huge_pages(ptr: *const u8, bytes: usize) {
 #[cfg(not(target_os = "linux"))]
 fn advise_huge_pages(_ptr: *const u8, _bytes: usize) {}
 
+/// Elements `from..to` of `v`'s capacity (clamped to it), as an address range for
+/// [`populate`]: taken before another thread starts writing the vector.
+pub(crate) fn spare_range<T>(v: &Vec<T>, from: usize, to: usize) -> (usize, usize) {
+    let (base, size) = (v.as_ptr() as usize, std::mem::size_of::<T>());
+    (base + from.min(v.capacity()) * size, base + to.min(v.capacity()) * size)
+}
+
+/// Asks the kernel to fault in the whole pages of the address range `(start, end)` (from
+/// [`spare_range`]) now, as if written, without writing them: a thread with nothing else
+/// to do takes the page faults (the zeroing of fresh pages) that the thread about to
+/// write there would otherwise wait for. The contents do not change, so another thread
+/// may be writing the range meanwhile. A kernel without `MADV_POPULATE_WRITE` (before
+/// Linux 5.14) declines, and nothing happens.
+#[cfg(target_os = "linux")]
+pub(crate) fn populate((start, end): (usize, usize)) {
+    const PAGE: usize = 4096;
+    let (start, end) = (start.next_multiple_of(PAGE), end / PAGE * PAGE);
+    if end > start {
+        // SAFETY: the range lies inside an allocation this process owns (a vector's
+        // buffer, `spare_range`), and MADV_POPULATE_WRITE only faults its pages in,
+        // never changing what they hold.
+        unsafe { libc::madvise(start as *mut libc::c_void, end - start, libc::MADV_POPULATE_WRITE) };
+    }
+}
+
+#[cfg(not(target_os = "linux"))]
+pub(crate) fn populate(_range: (usize, usize)) {}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -50,6 +78,54 @@ mod tests {
             assert_eq!(v.len(), n);
             assert!(v.iter().enumerate().all(|(i, &x)| x as usize == n - 1 - i));
         }
+    }
+
+    /// Faulting pages in never changes what they hold: neither the written elements nor,
+    /// through a range given past them, anything written there later.
+    #[test]
+    fn populate_keeps_the_contents() {
+        let n = 3 << 20;
+        let mut v: Vec<u32> = vec_on_huge_pages(2 * n);
+        v.extend((0..n as u32).map(|x| x.wrapping_mul(2_654_435_761)));
+        populate(spare_range(&v, 0, n));
+        populate(spare_range(&v, n / 2, usize::MAX));
+        assert_eq!(spare_range(&v, 0, usize::MAX).1, spare_range(&v, 0, v.capacity()).1, "clamped to the capacity");
+        v.extend(0..n as u32);
+        assert!(v[..n].iter().enumerate().all(|(i, &x)| x == (i as u32).wrapping_mul(2_654_435_761)));
+        assert!(v[n..].iter().enumerate().all(|(i, &x)| x as usize == i));
+    }
+
+    /// Where the kernel has `MADV_POPULATE_WRITE` (Linux 5.14), the range's pages are
+    /// resident afterwards (`mincore`), not before.
+    #[cfg(target_os = "linux")]
+    #[test]
+    fn populate_faults_the_pages_in() {
+        let release = std::fs::read_to_string("/proc/sys/kernel/osrelease").expect("the kernel's release");
+        let mut parts = release.trim().split(['.', '-']).map(|p| p.parse::<u32>().unwrap_or(0));
+        let (major, minor) = (parts.next().unwrap_or(0), parts.next().unwrap_or(0));
+        const PAGE: usize = 4096;
+        // Above glibc's largest mmap threshold (32 MB): fresh pages, never a freed chunk.
+        let bytes = 64 << 20;
+        let v: Vec<u8> = Vec::with_capacity(bytes + PAGE);
+        let start = (v.as_ptr() as usize).next_multiple_of(PAGE);
+        let resident = || {
+            let mut flags = vec![0u8; bytes / PAGE];
+            // SAFETY: the range is whole pages inside `v`'s buffer, and `flags` has a byte
+            // per page.
+            let r = unsafe { libc::mincore(start as *mut libc::c_void, bytes, flags.as_mut_ptr()) };
+            assert_eq!(r, 0, "mincore");
+            flags.iter().filter(|&&f| f & 1 != 0).count()
+        };
+        let before = resident();
+        populate((start, start + bytes));
+        let after = resident();
+        if (major, minor) >= (5, 14) {
+            assert!(before < bytes / PAGE / 2, "{before} pages resident before anything was written");
+            assert_eq!(after, bytes / PAGE, "Linux {}: pages resident after populate", release.trim());
+        } else {
+            eprintln!("Linux {} has no MADV_POPULATE_WRITE: only checked that populate does no harm", release.trim());
+        }
+        drop(v);
     }
 
     /// The kernel takes the advice: the mapping holding a large vector may be backed by
