@@ -200,7 +200,7 @@ pub struct WideBvh {
     pub(crate) tris: Vec<Tri4>,
     pub(crate) root: u32,
     /// Levels of wide nodes (bounded so the traversal stack cannot overflow).
-    depth: usize,
+    pub(crate) depth: usize,
     /// Blocks hold `v0, v1, v2` for the watertight test instead of `v0, e1, e2`.
     pub(crate) watertight: bool,
     level: SimdLevel,
