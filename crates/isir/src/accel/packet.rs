@@ -33,7 +33,7 @@ const LEAF_ALONE: u32 = 6;
 /// [`crate::accel::wide::STACK_SIZE`]. PERF: the larger frame's stack probes (a store per
 /// 4 KB page at every call, one call per packet) cost the conference room's primary
 /// packets 9% (23.5 -> 25.7 Mrays/s, one thread), the dragon's 10%.
-pub(crate) const SMALL_STACK: usize = 120;
+pub(crate) const SMALL_STACK: usize = 7 * 16 + 8;
 
 impl WideBvh {
     /// Closest hits of up to [`PACKET`] rays (`out[i]` for `rays[i]`): those of

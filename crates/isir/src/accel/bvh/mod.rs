@@ -108,6 +108,10 @@ const SAH_MAX_DEPTH: u32 = 48;
 /// Traversal stacks hold this many entries: the deepest tree is
 /// `SAH_MAX_DEPTH` + 32 median splits.
 pub const STACK_SIZE: usize = 96;
+
+/// Bytes of one record of the SAH build (a primitive's box and number), as
+/// [`Bvh::build_sah_in`] lays them out in its caller's storage.
+pub(crate) const RECORD_BYTES: usize = 32;
 /// Subtrees with more primitives than this are built in parallel.
 const PARALLEL_THRESHOLD: usize = 4096;
 /// Nodes with more primitives than this are binned in parallel.
@@ -154,9 +158,10 @@ impl Bvh {
         Bvh { nodes, prim_indices }
     }
 
-    /// [`Bvh::build_sah`] with the build's records in the spare capacity of `storage`
-    /// (grown if short, left empty), for the caller to fill next with memory already
-    /// faulted in (the wide tree's blocks, [`crate::accel::wide::WideBvh::from_bvh_in`]).
+    /// [`Bvh::build_sah`] with the build's records ([`RECORD_BYTES`] each) in the spare
+    /// capacity of `storage` (grown if short, left empty), for the caller to fill next with
+    /// memory already faulted in (the wide tree's blocks,
+    /// [`crate::accel::wide::WideBvh::from_bvh_in`]).
     /// `S` must be aligned to 16 bytes and a multiple of 32 bytes long (checked at
     /// compile time).
     pub(crate) fn build_sah_in<S>(indices: &[u32], box_of: impl Fn(u32) -> Aabb + Sync, storage: &mut Vec<S>) -> Bvh {

@@ -623,21 +623,19 @@ pub(super) fn build_sah(indices: &[u32], box_of: impl Fn(u32) -> Aabb + Sync) ->
 /// PERF: the wide tree's triangle blocks are written there (`WideBvh::from_bvh_in`): on
 /// the 2-core Zen 4 VM a fresh page cost far more than writing it (10M triangles: the
 /// blocks' 421 MB took ~0.5 s of a 2.4 s build, most of it in the kernel zeroing pages).
-///
-/// # Panics
-/// If `S` is not aligned at least as a record or its size is not a whole number of
-/// records (checked at compile time).
+/// `S` must be aligned at least as a record and a whole number of records long: a
+/// compile-time check.
 pub(crate) fn build_sah_in<S>(indices: &[u32], box_of: impl Fn(u32) -> Aabb + Sync, storage: &mut Vec<S>) -> (Vec<BvhNode>, Vec<u32>) {
     use rayon::prelude::*;
     use std::mem::{align_of, size_of, MaybeUninit};
     const { assert!(align_of::<S>() >= align_of::<PrimRef>() && size_of::<S>().is_multiple_of(size_of::<PrimRef>()) && size_of::<S>() > 0) };
-    // PERF: the build's records on the pages the caller gave (`storage`) and its binary
+    const { assert!(size_of::<PrimRef>() == super::RECORD_BYTES) };
+    // PERF: the records on the pages the caller gave (`storage`: huge pages when the wide
+    // tree's blocks follow them there, 10M-triangle build 0.88x the time), the binary
     // nodes on ordinary pages. A huge page first touched can cost the kernel a compaction
-    // (THP `defrag` set to `madvise`, the common default) or, in a VM, the host's fault on
-    // fresh memory: on the 2-core Zen 4 VM the 10M-triangle build took 2.42 -> 2.19 s in a
-    // fresh process and 2.11 -> 1.85 s as the best of three (medians of 5), with the
-    // records and nodes on ordinary pages, as long as the wide tree was in fresh memory of
-    // its own.
+    // (THP `defrag` set to `madvise`, the common default) or, in a VM, the host's fault
+    // on fresh memory: with the records and nodes on ordinary pages and the wide tree in
+    // fresh memory of its own, the sixteenth session's 10M build took 2.42 -> 2.19 s.
     storage.clear();
     storage.reserve((indices.len() * size_of::<PrimRef>()).div_ceil(size_of::<S>()));
     let spare = storage.spare_capacity_mut();

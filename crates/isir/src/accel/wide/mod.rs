@@ -245,14 +245,21 @@ impl WideBvh {
         w.sah_cost = plan.cost / bvh.nodes[0].aabb().half_area().max(f32::MIN_POSITIVE);
         // The conversion runs on one core; the other faults in meanwhile what will surely
         // be written next: the blocks' triangle numbers, and the blocks beyond the records'
-        // part of `storage` (at least a block per four triangles). PERF: 10M triangles,
+        // part of `storage` (at least a block per four triangles). The kernel only faults
+        // pages in, never changing them, so the conversion may write the blocks' numbers
+        // meanwhile (and if their vector outgrows its estimate and moves, faulting its old
+        // pages is merely wasted). PERF: 10M triangles,
         // one build in a fresh process, 2.06 -> 1.97 s (medians of 8 interleaved). Faulting
         // the wide nodes in a little ahead of the conversion, following its progress, was
         // slower (2.07 s).
         let prims = bvh.prim_indices.len();
         let (blocks, tail) = (
             crate::accel::memory::spare_range(&c.blocks, 0, prims / 4),
-            crate::accel::memory::spare_range(&storage, (prims * 32).div_ceil(std::mem::size_of::<Tri4>()), prims / 4),
+            crate::accel::memory::spare_range(
+                &storage,
+                (prims * crate::accel::bvh::RECORD_BYTES).div_ceil(std::mem::size_of::<Tri4>()),
+                prims / 4,
+            ),
         );
         let (root, ()) = rayon::join(
             || c.convert(bvh, &plan, 0, 1),
