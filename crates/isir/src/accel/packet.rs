@@ -402,15 +402,18 @@ impl WideBvh {
     }
 }
 
-#[cfg(all(test, target_arch = "x86_64"))]
+#[cfg(test)]
 mod tests {
+    #[cfg(target_arch = "x86_64")]
     use super::*;
+    #[cfg(target_arch = "x86_64")]
     use crate::accel::wide::STACK_SIZE;
 
     /// Both stacks of the AVX-512 packets give the hits of single rays (the large one is
     /// for trees deeper than the course's and the scanned models', which the small one
     /// serves: checked here for the conference room).
     #[test]
+    #[cfg(target_arch = "x86_64")]
     fn both_packet_stacks_give_the_single_rays_hits() {
         if SimdLevel::best() != SimdLevel::Avx512 {
             eprintln!("no AVX-512 on this CPU: the packets' stacks not run (the AVX2 streams serve packets, tested elsewhere)");
