@@ -33,7 +33,7 @@ const LEAF_ALONE: u32 = 6;
 /// [`crate::accel::wide::STACK_SIZE`]. PERF: the larger frame's stack probes (a store per
 /// 4 KB page at every call, one call per packet) cost the conference room's primary
 /// packets 9% (23.5 -> 25.7 Mrays/s, one thread), the dragon's 10%.
-pub(crate) const SMALL_STACK: usize = 7 * 16 + 8;
+pub(crate) const SMALL_STACK: usize = crate::accel::wide::stack_entries(16);
 
 impl WideBvh {
     /// Closest hits of up to [`PACKET`] rays (`out[i]` for `rays[i]`): those of
@@ -50,7 +50,7 @@ impl WideBvh {
             // SAFETY: the level is only ever Avx512 when the CPU reported AVX-512, and each
             // stack holds the `7 · depth + 8` entries of this tree (`from_bvh` checked it
             // against `STACK_SIZE`).
-            let done = if 7 * self.depth + 8 <= SMALL_STACK {
+            let done = if self.stack_entries() <= SMALL_STACK {
                 unsafe { self.packet_avx512::<SMALL_STACK>(rays, out) }
             } else {
                 unsafe { self.packet_avx512::<{ crate::accel::wide::STACK_SIZE }>(rays, out) }
@@ -150,7 +150,7 @@ impl WideBvh {
     ///
     /// # Safety
     /// The CPU must have AVX-512 (F, VL, DQ, BW), and `STACK` must be at least
-    /// `7 · depth + 8` (at most seven pushes per level).
+    /// the tree's [`WideBvh::stack_entries`] (at most seven pushes per level).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
     unsafe fn packet_avx512<const STACK: usize>(&self, rays: &[RaySegment], out: &mut [Option<MeshHit>]) -> bool {
@@ -423,7 +423,7 @@ mod tests {
         let scene = desc.build(crate::accel::Accel::BvhSah).expect("the conference room builds");
         let (_, mesh) = scene.meshes().next().expect("one mesh");
         let crate::geometry::MeshAccel::Wide(w) = mesh.accel() else { panic!("bvh-sah builds a wide BVH") };
-        assert!(7 * w.depth + 8 <= SMALL_STACK, "the conference room's tree ({} deep) takes the small stack", w.depth);
+        assert!(w.stack_entries() <= SMALL_STACK, "the conference room's tree ({} stack entries) takes the small stack", w.stack_entries());
         let camera = desc.camera.build(1.5);
         let rays = crate::rays::generate(&scene, &camera, 48, 32, crate::rays::RayKind::Primary, 1).expect("camera rays");
         let (mut checked, mut packets) = (0, 0);

@@ -47,7 +47,7 @@ pub(crate) const FIRST_MASK: u32 = (1 << BLOCKS_SHIFT) - 1;
 /// Leaves hold at most this many blocks of four triangles.
 const MAX_BLOCKS: usize = 8;
 /// Traversal stack entries: at most seven pushes per level.
-pub(crate) const STACK_SIZE: usize = 7 * crate::accel::bvh::STACK_SIZE + 8;
+pub(crate) const STACK_SIZE: usize = stack_entries(crate::accel::bvh::STACK_SIZE);
 /// Box distances are widened by a few ULPs so that rounding in the box test never culls a
 /// triangle the exact test would hit (the conservative traversal of pbrt and Embree).
 /// The interval `[near, far]` becomes `[near - |near|·WIDEN, far + |far|·WIDEN]`, wider
@@ -200,7 +200,7 @@ pub struct WideBvh {
     pub(crate) tris: Vec<Tri4>,
     pub(crate) root: u32,
     /// Levels of wide nodes (bounded so the traversal stack cannot overflow).
-    pub(crate) depth: usize,
+    depth: usize,
     /// Blocks hold `v0, v1, v2` for the watertight test instead of `v0, e1, e2`.
     pub(crate) watertight: bool,
     level: SimdLevel,
@@ -269,7 +269,7 @@ impl WideBvh {
             },
         );
         w.root = root;
-        assert!(c.depth * 7 + 8 <= STACK_SIZE, "wide BVH too deep ({}) for the traversal stack", c.depth);
+        assert!(stack_entries(c.depth) <= STACK_SIZE, "wide BVH too deep ({}) for the traversal stack", c.depth);
         w.depth = c.depth;
         w.nodes = c.nodes;
         w.tris = storage;
@@ -394,6 +394,19 @@ impl WideBvh {
             }
         }
         best
+    }
+}
+
+/// The traversal stack entries a tree of `depth` levels of wide nodes needs: at most seven
+/// pushed per level, and eight by the last.
+pub(crate) const fn stack_entries(depth: usize) -> usize {
+    7 * depth + 8
+}
+
+impl WideBvh {
+    /// The traversal stack entries this tree needs ([`stack_entries`] of its depth).
+    pub(crate) fn stack_entries(&self) -> usize {
+        stack_entries(self.depth)
     }
 }
 
