@@ -4,7 +4,7 @@ use crate::{load_mesh, warn_all, with_threads};
 use clap::Args;
 use isir::geometry::{MeshAccel, TriangleMesh};
 use isir::rays::{self, HitRecord, RayKind, RayRecord};
-use isir::wide::{SimdLevel, TraversalStats};
+use isir::wide::{Interleave, SimdLevel, TraversalStats};
 use isir::Accel;
 use rayon::prelude::*;
 use std::path::PathBuf;
@@ -64,6 +64,11 @@ pub struct TraceArgs {
     /// primary rays; closest hits only).
     #[arg(long)]
     pub packets: bool,
+    /// When a thread traces 16 rays at a time, each next node prefetched while it steps
+    /// the others (the same hits): auto (when the tree is larger than the CPU's
+    /// last-level cache), always, never (one ray after the other; bvh-sah only).
+    #[arg(long, default_value = "auto")]
+    pub interleave: Interleave,
 }
 
 /// How a ray set is traced.
@@ -187,6 +192,16 @@ pub fn trace(a: TraceArgs) -> anyhow::Result<()> {
         anyhow::ensure!(a.accel == Accel::BvhSah, "--simd {} applies to --accel bvh-sah only, not {}", l.name(), a.accel.name());
         anyhow::ensure!(SimdLevel::available().contains(&l), "--simd {}: this CPU cannot run it", l.name());
     }
+    anyhow::ensure!(
+        a.interleave == Interleave::Auto || a.accel == Accel::BvhSah,
+        "--interleave {} applies to --accel bvh-sah only, not {}",
+        a.interleave.name(),
+        a.accel.name()
+    );
+    anyhow::ensure!(
+        !(a.packets && a.interleave == Interleave::Always),
+        "--packets traces packets of 16: drop --interleave always or --packets"
+    );
     if let Some(out) = &a.hits {
         isir::output::check_writable(out)?;
     }
@@ -210,6 +225,9 @@ fn trace_in_pool(a: &TraceArgs) -> anyhow::Result<()> {
         Mode::Closest
     };
     let b = build_timed(&mut mesh, accel, a.repeat, simd)?;
+    if a.interleave != Interleave::Auto {
+        anyhow::ensure!(mesh.set_interleave(a.interleave), "--interleave applies to --accel bvh-sah only");
+    }
     let f = trace_timed(&mesh, &set, mode, a.repeat);
     println!("engine: isir {}", env!("CARGO_PKG_VERSION"));
     println!(
@@ -224,6 +242,9 @@ fn trace_in_pool(a: &TraceArgs) -> anyhow::Result<()> {
         b.simd,
         mesh.triangle_test
     );
+    if mode != Mode::Packets {
+        println!("rays_in_flight: {}", mesh.rays_in_flight());
+    }
     println!("triangles: {}\ndegenerate_triangles: {}\nrays: {}\nhits: {}", b.stats.triangles, b.stats.degenerate, f.rays, f.hits);
     println!("build_ms: {:.2}\nbuild_mtris_per_s: {:.2}", b.build_ms, b.build_mtris_per_s());
     println!("trace_ms: {:.2}\nmrays_per_s: {:.2}", f.trace_ms, f.mrays_per_s());

@@ -136,6 +136,15 @@ fn rays_and_trace_round_trip_and_reject_bad_files() {
     // The same with packets and with the watertight test: the same number of hits.
     let (_, out_p, _) = isir(&["trace", "uvsphere", rays.to_str().unwrap(), "--packets", "--repeat", "1"]);
     assert!(out_p.contains(&format!("hits: {n_hits}\n")), "{out_p}");
+    // A small mesh's rays one at a time (auto), or sixteen at a time when asked: the same
+    // hit file.
+    assert!(out.contains("rays_in_flight: 1\n"), "{out}");
+    let hits16 = tmp("p16.hits");
+    let (code, out_i, err) =
+        isir(&["trace", "uvsphere", rays.to_str().unwrap(), "--interleave", "always", "--hits", hits16.to_str().unwrap(), "--repeat", "1"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out_i.contains("rays_in_flight: 16\n") && out_i.contains(&format!("hits: {n_hits}\n")), "{out_i}");
+    assert_eq!(std::fs::read(&hits16).unwrap(), std::fs::read(&hits).unwrap());
     // A truncated ray file and a file that is not one.
     let bytes = std::fs::read(&rays).unwrap();
     let cut = tmp("cut.rays");
@@ -394,6 +403,13 @@ fn incompatible_flags_are_rejected_before_loading() {
     assert!(!err.contains("nonexistent"), "{err}");
     let (code, _, err) = isir(&["trace", "/nonexistent.obj", "/nonexistent.rays", "--repeat", "0"]);
     one_line_error(code, &err, "--repeat");
+    let (code, _, err) = isir(&["trace", "/nonexistent.obj", "/nonexistent.rays", "--interleave", "always", "--accel", "bvh-mid"]);
+    one_line_error(code, &err, "--interleave");
+    assert!(!err.contains("nonexistent"), "{err}");
+    let (code, _, err) = isir(&["trace", "/nonexistent.obj", "/nonexistent.rays", "--interleave", "always", "--packets"]);
+    one_line_error(code, &err, "--packets");
+    let (code, _, err) = isir(&["trace", "/nonexistent.obj", "/nonexistent.rays", "--interleave", "sometimes"]);
+    one_line_error(code, &err, "sometimes");
     let (code, _, err) = isir(&["bench", "--repeat", "0", "--no-embree"]);
     one_line_error(code, &err, "--repeat");
 }

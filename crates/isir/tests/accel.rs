@@ -273,9 +273,11 @@ fn packets_return_the_same_hits_as_single_rays() {
 /// same `t` (every product exact, the determinant a power of two). Small triangles
 /// scattered above the plane give the leaves' boxes different tops, so that rays next
 /// to each other order the leaves differently.
-#[test]
-fn packets_resolve_ties_between_coincident_triangles_as_single_rays() {
-    use isir::rays::{trace_mesh, trace_mesh_packets, HitRecord, RayRecord};
+/// Two coincident tilings of the plane z = 0 and small triangles above it, with rays that
+/// meet both tilings at exactly the same `t` (see the test below): the mesh (a wide BVH),
+/// the rays and the number of tiling triangles.
+fn coincident_tilings() -> (TriangleMesh, Vec<isir::rays::RayRecord>, usize) {
+    use isir::rays::RayRecord;
     let (mut vertices, mut triangles) = (Vec::new(), Vec::new());
     let add = |vertices: &mut Vec<Vec3>, triangles: &mut Vec<[u32; 3]>, a: Vec3, b: Vec3, c: Vec3| {
         let n = vertices.len() as u32;
@@ -317,6 +319,13 @@ fn packets_resolve_ties_between_coincident_triangles_as_single_rays() {
             }
         }
     }
+    (mesh, rays, tiles)
+}
+
+#[test]
+fn packets_resolve_ties_between_coincident_triangles_as_single_rays() {
+    use isir::rays::{trace_mesh, trace_mesh_packets, HitRecord};
+    let (mut mesh, rays, tiles) = coincident_tilings();
     let mut single = vec![HitRecord::MISS; rays.len()];
     let mut packed = single.clone();
     // AVX-512 packets are left out: they report either of two triangles at one distance
@@ -331,6 +340,37 @@ fn packets_resolve_ties_between_coincident_triangles_as_single_rays() {
         assert!(ties > rays.len() / 2 && first > 0 && first < ties, "{level:?}: {first} of {ties} plane hits on the first tiling");
         for (i, (s, p)) in single.iter().zip(&packed).enumerate() {
             assert_eq!(s, p, "{level:?} ray {i}: {:?}", rays[i]);
+        }
+    }
+}
+
+/// Rays traced 16 at a time per thread ([`isir::wide::Interleave`]) visit the nodes in the
+/// single ray's order, so where two triangles meet a ray at one distance they report the
+/// single ray's triangle, on every code path (AVX-512 included), closest and any hits.
+#[test]
+fn interleaved_rays_resolve_ties_between_coincident_triangles_as_single_rays() {
+    use isir::rays::{trace_mesh, HitRecord};
+    use isir::wide::Interleave;
+    let (mut mesh, rays, tiles) = coincident_tilings();
+    let mut single = vec![HitRecord::MISS; rays.len()];
+    let mut interleaved = single.clone();
+    for level in SimdLevel::available() {
+        assert!(mesh.set_simd_level(level));
+        for occluded in [false, true] {
+            assert!(mesh.set_interleave(Interleave::Never));
+            assert_eq!(mesh.rays_in_flight(), 1);
+            trace_mesh(&mesh, &rays, occluded, &mut single);
+            assert!(mesh.set_interleave(Interleave::Always));
+            assert_eq!(mesh.rays_in_flight(), isir::wide::IN_FLIGHT);
+            trace_mesh(&mesh, &rays, occluded, &mut interleaved);
+            if !occluded {
+                let first = single.iter().filter(|h| h.t == 16.0 && (h.prim as usize) < tiles / 2).count();
+                let ties = single.iter().filter(|h| h.t == 16.0 && (h.prim as usize) < tiles).count();
+                assert!(ties > rays.len() / 2 && first > 0 && first < ties, "{level:?}: {first} of {ties} plane hits on the first tiling");
+            }
+            for (i, (s, p)) in single.iter().zip(&interleaved).enumerate() {
+                assert_eq!(s, p, "{level:?}, occluded {occluded}, ray {i}: {:?}", rays[i]);
+            }
         }
     }
 }

@@ -65,9 +65,71 @@ pub(crate) fn populate((start, end): (usize, usize)) {
 #[cfg(not(target_os = "linux"))]
 pub(crate) fn populate(_range: (usize, usize)) {}
 
+/// The size of the CPU's last-level cache in bytes (Linux: the highest cache level
+/// `sysfs` lists for the first CPU), 32 MiB where it cannot be read. Read once.
+pub fn last_level_cache_bytes() -> usize {
+    static BYTES: std::sync::OnceLock<usize> = std::sync::OnceLock::new();
+    *BYTES.get_or_init(|| read_last_level_cache().unwrap_or(32 << 20))
+}
+
+#[cfg(target_os = "linux")]
+fn read_last_level_cache() -> Option<usize> {
+    let dir = std::path::Path::new("/sys/devices/system/cpu/cpu0/cache");
+    let read = |index: &std::path::Path, what: &str| std::fs::read_to_string(index.join(what)).ok();
+    std::fs::read_dir(dir)
+        .ok()?
+        .flatten()
+        .filter(|e| e.file_name().to_string_lossy().starts_with("index"))
+        .filter_map(|e| {
+            let index = e.path();
+            let level: u32 = read(&index, "level")?.trim().parse().ok()?;
+            let kind = read(&index, "type")?;
+            (kind.trim() != "Instruction").then_some(())?;
+            Some((level, cache_size_bytes(&read(&index, "size")?)?))
+        })
+        .max()
+        .map(|(_, bytes)| bytes)
+}
+
+#[cfg(not(target_os = "linux"))]
+fn read_last_level_cache() -> Option<usize> {
+    None
+}
+
+/// A `sysfs` cache size (`"32768K"`, `"1M"`, `"512"`) in bytes.
+#[cfg_attr(not(target_os = "linux"), allow(dead_code))]
+fn cache_size_bytes(text: &str) -> Option<usize> {
+    let t = text.trim();
+    let (digits, unit) = match t.char_indices().find(|(_, c)| !c.is_ascii_digit()) {
+        Some((i, _)) => t.split_at(i),
+        None => (t, ""),
+    };
+    let n: usize = digits.parse().ok()?;
+    let scale = match unit {
+        "" => 1,
+        "K" | "k" => 1 << 10,
+        "M" => 1 << 20,
+        "G" => 1 << 30,
+        _ => return None,
+    };
+    n.checked_mul(scale).filter(|&b| b > 0)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn cache_sizes_are_read_as_sysfs_writes_them() {
+        assert_eq!(cache_size_bytes("32768K\n"), Some(32 << 20));
+        assert_eq!(cache_size_bytes("1M"), Some(1 << 20));
+        assert_eq!(cache_size_bytes("512"), Some(512));
+        for bad in ["", "K", "12Q", "0K", "-1K", "99999999999999999999K"] {
+            assert_eq!(cache_size_bytes(bad), None, "{bad:?}");
+        }
+        // Whatever the machine, a size a CPU could have.
+        assert!((64 << 10..=4 << 30).contains(&last_level_cache_bytes()));
+    }
 
     #[test]
     fn vectors_on_huge_pages_are_ordinary_vectors() {

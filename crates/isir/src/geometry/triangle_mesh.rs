@@ -392,6 +392,29 @@ impl TriangleMesh {
         }
     }
 
+    /// Choose when the wide BVH's batches of rays are interleaved
+    /// ([`TriangleMesh::intersect_batch`]); false when the mesh has no wide BVH.
+    pub fn set_interleave(&mut self, interleave: crate::accel::wide::Interleave) -> bool {
+        match &mut self.accel {
+            MeshAccel::Wide(w) => {
+                w.set_interleave(interleave);
+                true
+            }
+            _ => false,
+        }
+    }
+
+    /// How many rays of a batch each thread traces at a time
+    /// ([`TriangleMesh::intersect_batch`]): [`crate::accel::wide::IN_FLIGHT`] when the
+    /// wide BVH interleaves them, otherwise 1.
+    #[must_use]
+    pub fn rays_in_flight(&self) -> usize {
+        match &self.accel {
+            MeshAccel::Wide(w) if w.interleaves() => crate::accel::wide::IN_FLIGHT,
+            _ => 1,
+        }
+    }
+
     /// The per-ray part of the mesh's triangle test, prepared once per query.
     fn ray_test(&self, ray: &Ray) -> RayTest {
         match self.triangle_test {
@@ -569,6 +592,41 @@ impl TriangleMesh {
                 bvh.occluded(ray, t_min, t_max, |prim, t_max| self.hit_triangle(&test, prim, t_min, t_max).is_some())
             }
             MeshAccel::Wide(w) => self.may_hit(ray, t_min, t_max) && w.occluded(ray, t_min, t_max),
+        }
+    }
+
+    /// [`TriangleMesh::intersect`] of every ray of `rays` (each in its own interval):
+    /// `out[i]` for ray `i`, the same answers. A wide BVH larger than the CPU's
+    /// last-level cache traces them [`crate::accel::wide::IN_FLIGHT`] at a time per
+    /// thread ([`WideBvh::interleaves`]); otherwise one after the other.
+    ///
+    /// # Panics
+    /// If `out` is shorter than `rays`.
+    pub fn intersect_batch(&self, rays: &[crate::math::ray::RaySegment], out: &mut [Option<MeshHit>]) {
+        match &self.accel {
+            MeshAccel::Wide(w) if w.interleaves() => w.intersect_batch(rays, out),
+            _ => {
+                assert!(out.len() >= rays.len(), "one answer per ray");
+                for (o, r) in out.iter_mut().zip(rays) {
+                    *o = self.intersect(&r.ray(), r.t_min, r.t_max);
+                }
+            }
+        }
+    }
+
+    /// [`TriangleMesh::occluded`] of every ray of `rays`, as [`TriangleMesh::intersect_batch`].
+    ///
+    /// # Panics
+    /// If `out` is shorter than `rays`.
+    pub fn occluded_batch(&self, rays: &[crate::math::ray::RaySegment], out: &mut [bool]) {
+        match &self.accel {
+            MeshAccel::Wide(w) if w.interleaves() => w.occluded_batch(rays, out),
+            _ => {
+                assert!(out.len() >= rays.len(), "one answer per ray");
+                for (o, r) in out.iter_mut().zip(rays) {
+                    *o = self.occluded(&r.ray(), r.t_min, r.t_max);
+                }
+            }
         }
     }
 

@@ -488,17 +488,18 @@ const CHUNK: usize = 1024;
 pub fn trace_mesh(mesh: &crate::TriangleMesh, rays: &[RayRecord], occluded: bool, hits: &mut [HitRecord]) {
     assert_eq!(rays.len(), hits.len());
     rays.par_chunks(CHUNK).zip(hits.par_chunks_mut(CHUNK)).for_each(|(rays, hits)| {
-        for (r, h) in rays.iter().zip(hits) {
-            let ray = r.ray();
-            *h = if occluded {
-                if mesh.occluded(&ray, r.t_min, r.t_max) {
-                    HitRecord::OCCLUDED
-                } else {
-                    HitRecord::MISS
-                }
-            } else {
-                mesh.intersect(&ray, r.t_min, r.t_max).map_or(HitRecord::MISS, HitRecord::from)
-            };
+        if occluded {
+            let mut out = [false; CHUNK];
+            mesh.occluded_batch(rays, &mut out);
+            for (h, o) in hits.iter_mut().zip(out) {
+                *h = if o { HitRecord::OCCLUDED } else { HitRecord::MISS };
+            }
+        } else {
+            let mut out = [None; CHUNK];
+            mesh.intersect_batch(rays, &mut out);
+            for (h, o) in hits.iter_mut().zip(out) {
+                *h = o.map_or(HitRecord::MISS, HitRecord::from);
+            }
         }
     });
 }

@@ -24,11 +24,14 @@
 //! returns bit-identical distances and barycentrics.
 
 mod collapse;
+mod interleave;
 mod kernels;
 pub(crate) mod stream;
 #[cfg(test)]
 mod tests;
 mod traverse;
+pub use interleave::Interleave;
+pub use interleave::IN_FLIGHT;
 
 use crate::accel::bvh::Bvh;
 use crate::accel::triangle::TriangleTest;
@@ -206,6 +209,8 @@ pub struct WideBvh {
     level: SimdLevel,
     /// The tree's SAH cost as the collapse plan counts it.
     sah_cost: f32,
+    /// When batches of rays are interleaved.
+    interleave: Interleave,
 }
 
 impl WideBvh {
@@ -228,8 +233,16 @@ impl WideBvh {
     pub(crate) fn from_bvh_in(bvh: &Bvh, mesh: &impl Triangles, storage: Vec<Tri4>) -> WideBvh {
         use rayon::prelude::*;
         let watertight = mesh.test() == TriangleTest::Watertight;
-        let mut w =
-            WideBvh { nodes: Vec::new(), tris: Vec::new(), root: EMPTY, depth: 0, watertight, level: SimdLevel::best(), sah_cost: 0.0 };
+        let mut w = WideBvh {
+            nodes: Vec::new(),
+            tris: Vec::new(),
+            root: EMPTY,
+            depth: 0,
+            watertight,
+            level: SimdLevel::best(),
+            sah_cost: 0.0,
+            interleave: Interleave::Auto,
+        };
         if bvh.nodes.is_empty() {
             return w;
         }

@@ -215,3 +215,110 @@ fn records_in_the_blocks_storage_give_the_same_tree() {
         }
     }
 }
+
+/// Rays for the batch tests: from around and inside the cube of [`random_mesh`], with
+/// intervals of every kind (negative `t_min`, short `t_max`) and a few invalid rays.
+fn batch_rays(n: usize, seed: u64) -> Vec<crate::math::ray::RaySegment> {
+    let mut rng = rand_pcg::Pcg32::seed_from_u64(seed);
+    (0..n)
+        .map(|i| {
+            let mut p = || Vec3::new(rng.random_range(-14.0..14.0), rng.random_range(-14.0..14.0), rng.random_range(-14.0..14.0));
+            let (origin, target) = (p(), p());
+            let (t_min, t_max) = match i % 5 {
+                0 => (-0.5, 0.5),
+                1 => (0.0, 0.3),
+                _ => (0.0, f32::INFINITY),
+            };
+            let direction = match i % 97 {
+                0 => Vec3::ZERO,
+                1 => Vec3::new(f32::NAN, 1.0, 0.0),
+                _ => target - origin,
+            };
+            crate::math::ray::RaySegment { origin, t_min, direction, t_max }
+        })
+        .collect()
+}
+
+/// Interleaved batches give each ray the single ray's answer on the same code path, bit
+/// for bit (the same nodes in the same order), for closest and any hits, Möller–Trumbore
+/// and watertight, batches shorter and longer than the rays in flight.
+#[test]
+fn interleaved_batches_answer_as_single_rays_on_every_level() {
+    let rays = batch_rays(3000, 7);
+    for watertight in [false, true] {
+        let mut mesh = random_mesh(4000, 11);
+        if watertight {
+            mesh.triangle_test = crate::accel::triangle::TriangleTest::Watertight;
+        }
+        mesh.build_accel(Accel::BvhSah);
+        let MeshAccel::Wide(w) = mesh.accel() else { panic!("bvh-sah builds a wide BVH") };
+        let mut w = w.clone();
+        w.set_interleave(Interleave::Always);
+        assert!(w.interleaves(), "a shallow tree interleaves when asked to");
+        let mut hits = 0;
+        for level in SimdLevel::available() {
+            w.set_level(level);
+            for n in [0, 1, IN_FLIGHT - 1, IN_FLIGHT, IN_FLIGHT + 1, rays.len()] {
+                let rays = &rays[..n];
+                let (mut closest, mut blocked) = (vec![None; n], vec![false; n]);
+                w.intersect_batch(rays, &mut closest);
+                w.occluded_batch(rays, &mut blocked);
+                for (i, r) in rays.iter().enumerate() {
+                    let label = format!("{level:?}, watertight {watertight}, batch of {n}, ray {i}: {r:?}");
+                    assert_eq!(closest[i], w.intersect(&r.ray(), r.t_min, r.t_max), "{label}");
+                    assert_eq!(blocked[i], w.occluded(&r.ray(), r.t_min, r.t_max), "{label}");
+                    hits += usize::from(closest[i].is_some());
+                }
+            }
+        }
+        assert!(hits > rays.len() / 4, "the rays meet the mesh ({hits} hits)");
+    }
+}
+
+/// Trees deeper than the slots' stacks, and `Never`, trace one ray after the other (the
+/// same answers); `Auto` interleaves only a tree larger than the last-level cache.
+#[test]
+fn deep_trees_and_trees_in_the_cache_are_traced_one_ray_at_a_time() {
+    let mut mesh = random_mesh(2000, 3);
+    mesh.build_accel(Accel::BvhSah);
+    let MeshAccel::Wide(w) = mesh.accel() else { panic!("bvh-sah builds a wide BVH") };
+    let mut w = w.clone();
+    assert!(!w.interleaves(), "Auto: {} bytes fit in any last-level cache", w.bytes());
+    w.set_interleave(Interleave::Never);
+    assert!(!w.interleaves());
+    w.set_interleave(Interleave::Always);
+    assert!(w.interleaves() && w.depth <= 16);
+    // The same tree said to be 17 levels deep: its rays would overflow the slots' stacks,
+    // so even `Always` traces them one by one (a tree that deep takes thousands of
+    // triangles at scales spanning most of the float range to build).
+    w.depth = 17;
+    assert!(!w.interleaves(), "17 levels: {} stack entries", w.stack_entries());
+    let rays = batch_rays(500, 5);
+    let mut out = vec![None; rays.len()];
+    w.intersect_batch(&rays, &mut out);
+    for (r, o) in rays.iter().zip(&out) {
+        assert_eq!(*o, w.intersect(&r.ray(), r.t_min, r.t_max));
+    }
+    assert!(out.iter().any(Option::is_some));
+    // An empty tree: nothing to interleave, every ray misses.
+    let mut empty = TriangleMesh::new(Vec::new(), Vec::new(), Vec::new());
+    empty.build_accel(Accel::BvhSah);
+    let MeshAccel::Wide(w) = empty.accel() else { panic!("bvh-sah builds a wide BVH") };
+    let mut w = w.clone();
+    w.set_interleave(Interleave::Always);
+    assert!(!w.interleaves());
+    let mut blocked = vec![true; rays.len()];
+    w.occluded_batch(&rays, &mut blocked);
+    assert!(blocked.iter().all(|b| !b));
+    assert_eq!("never".parse::<Interleave>(), Ok(Interleave::Never));
+    assert!("sometimes".parse::<Interleave>().is_err());
+}
+
+#[test]
+#[should_panic(expected = "one answer per ray")]
+fn a_batch_needs_room_for_every_answer() {
+    let mut mesh = random_mesh(100, 1);
+    mesh.build_accel(Accel::BvhSah);
+    let MeshAccel::Wide(w) = mesh.accel() else { panic!("bvh-sah builds a wide BVH") };
+    w.intersect_batch(&batch_rays(10, 1), &mut [None; 9]);
+}
