@@ -375,6 +375,50 @@ fn interleaved_rays_resolve_ties_between_coincident_triangles_as_single_rays() {
     }
 }
 
+/// A mesh's batches, interleaved or not, answer each ray as `TriangleMesh::intersect` and
+/// `occluded` do, rays that miss the mesh's box (answered without a traversal) included.
+#[test]
+fn mesh_batches_answer_as_single_queries() {
+    use isir::math::ray::RaySegment;
+    use isir::wide::Interleave;
+    let mut mesh = bunny();
+    mesh.build_accel(Accel::BvhSah);
+    let b = mesh.aabb();
+    let mut rays: Vec<RaySegment> = random_rays(&mesh, 1200, 9)
+        .iter()
+        .enumerate()
+        .map(|(i, r)| RaySegment {
+            origin: r.origin,
+            t_min: 0.0,
+            direction: r.direction,
+            t_max: if i % 3 == 0 { 0.05 } else { f32::INFINITY },
+        })
+        .collect();
+    // Rays beside the box, parallel to it: they miss it.
+    rays.extend((0..100).map(|i| RaySegment {
+        origin: b.max + Vec3::new(0.01, 0.01 * i as f32, 0.0),
+        t_min: 0.0,
+        direction: Vec3::new(0.0, 0.0, -1.0),
+        t_max: f32::INFINITY,
+    }));
+    for level in SimdLevel::available() {
+        assert!(mesh.set_simd_level(level));
+        for interleave in [Interleave::Never, Interleave::Always] {
+            assert!(mesh.set_interleave(interleave));
+            let (mut closest, mut blocked) = (vec![None; rays.len()], vec![false; rays.len()]);
+            mesh.intersect_batch(&rays, &mut closest);
+            mesh.occluded_batch(&rays, &mut blocked);
+            let mut hits = 0;
+            for (i, r) in rays.iter().enumerate() {
+                assert_eq!(closest[i], mesh.intersect(&r.ray(), r.t_min, r.t_max), "{level:?} {interleave:?} ray {i}");
+                assert_eq!(blocked[i], mesh.occluded(&r.ray(), r.t_min, r.t_max), "{level:?} {interleave:?} ray {i}");
+                hits += usize::from(closest[i].is_some());
+            }
+            assert!(hits > rays.len() / 4 && closest[rays.len() - 100..].iter().all(Option::is_none), "{hits} hits");
+        }
+    }
+}
+
 #[test]
 fn negative_t_min_finds_hits_behind_the_origin_on_every_path() {
     // RAYS.md allows any t_min: the interval [-r, r) around an origin inside the bunny's

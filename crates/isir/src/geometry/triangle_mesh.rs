@@ -534,6 +534,13 @@ impl TriangleMesh {
         Self::inside(lo, hi, ray.origin) || Self::box_may_hit(lo, hi, ray, t_min, t_max)
     }
 
+    /// [`TriangleMesh::may_hit`] as a filter of ray segments, its box computed once.
+    #[inline(always)]
+    fn may_hit_filter(&self) -> impl Fn(&crate::math::ray::RaySegment) -> bool {
+        let (lo, hi) = self.grown_box();
+        move |r| Self::inside(lo, hi, r.origin) || Self::box_may_hit(lo, hi, &r.ray(), r.t_min, r.t_max)
+    }
+
     /// True when `p` lies in the box `lo..hi`: [`TriangleMesh::may_hit`] lets such rays
     /// through untested (a filter may let through what the traversal then misses).
     #[inline(always)]
@@ -604,7 +611,10 @@ impl TriangleMesh {
     /// If `out` is shorter than `rays`.
     pub fn intersect_batch(&self, rays: &[crate::math::ray::RaySegment], out: &mut [Option<MeshHit>]) {
         match &self.accel {
-            MeshAccel::Wide(w) if w.interleaves() => w.intersect_batch(rays, out),
+            MeshAccel::Wide(w) if w.interleaves() => {
+                assert!(out.len() >= rays.len(), "one answer per ray");
+                w.batch::<false>(rays, self.may_hit_filter(), |i, h| out[i] = h);
+            }
             _ => {
                 assert!(out.len() >= rays.len(), "one answer per ray");
                 for (o, r) in out.iter_mut().zip(rays) {
@@ -620,7 +630,10 @@ impl TriangleMesh {
     /// If `out` is shorter than `rays`.
     pub fn occluded_batch(&self, rays: &[crate::math::ray::RaySegment], out: &mut [bool]) {
         match &self.accel {
-            MeshAccel::Wide(w) if w.interleaves() => w.occluded_batch(rays, out),
+            MeshAccel::Wide(w) if w.interleaves() => {
+                assert!(out.len() >= rays.len(), "one answer per ray");
+                w.batch::<true>(rays, self.may_hit_filter(), |i, h| out[i] = h.is_some());
+            }
             _ => {
                 assert!(out.len() >= rays.len(), "one answer per ray");
                 for (o, r) in out.iter_mut().zip(rays) {

@@ -102,7 +102,7 @@ impl WideBvh {
     /// If `out` is shorter than `rays`.
     pub fn intersect_batch(&self, rays: &[RaySegment], out: &mut [Option<MeshHit>]) {
         assert!(out.len() >= rays.len(), "one answer per ray");
-        self.batch::<false>(rays, |i, h| out[i] = h);
+        self.batch::<false>(rays, |_| true, |i, h| out[i] = h);
     }
 
     /// Whether each ray of `rays` is blocked in its interval: `out[i]` is what
@@ -112,49 +112,72 @@ impl WideBvh {
     /// If `out` is shorter than `rays`.
     pub fn occluded_batch(&self, rays: &[RaySegment], out: &mut [bool]) {
         assert!(out.len() >= rays.len(), "one answer per ray");
-        self.batch::<true>(rays, |i, h| out[i] = h.is_some());
+        self.batch::<true>(rays, |_| true, |i, h| out[i] = h.is_some());
     }
 
-    /// The rays of a batch, each answer given to `put(i, hit)`.
-    fn batch<const ANY: bool>(&self, rays: &[RaySegment], put: impl FnMut(usize, Option<MeshHit>)) {
+    /// The rays of a batch, each answer given to `put(i, hit)`; rays for which `may_hit`
+    /// is false (a filter that only rules out rays that surely miss) are answered `None`
+    /// without a traversal.
+    pub(crate) fn batch<const ANY: bool>(
+        &self,
+        rays: &[RaySegment],
+        may_hit: impl Fn(&RaySegment) -> bool,
+        put: impl FnMut(usize, Option<MeshHit>),
+    ) {
         let mut put = put;
         if !self.interleaves() {
             for (i, r) in rays.iter().enumerate() {
-                put(i, self.dispatch::<ANY, false>(&r.ray(), r.t_min, r.t_max, &mut TraversalStats::default()));
+                let hit = may_hit(r).then(|| self.dispatch::<ANY, false>(&r.ray(), r.t_min, r.t_max, &mut TraversalStats::default()));
+                put(i, hit.flatten());
             }
             return;
         }
         match self.level {
-            SimdLevel::Scalar => self.interleaved_scalar::<ANY>(rays, &mut put),
+            SimdLevel::Scalar => self.interleaved_scalar::<ANY>(rays, &may_hit, &mut put),
             #[cfg(target_arch = "x86_64")]
             // SAFETY: `level` is only ever set to a level `SimdLevel::available` reported.
-            SimdLevel::Avx2 => unsafe { self.interleaved_avx2::<ANY>(rays, &mut put) },
+            SimdLevel::Avx2 => unsafe { self.interleaved_avx2::<ANY>(rays, &may_hit, &mut put) },
             #[cfg(target_arch = "x86_64")]
             // SAFETY: as above.
-            SimdLevel::Avx512 => unsafe { self.interleaved_avx512::<ANY>(rays, &mut put) },
+            SimdLevel::Avx512 => unsafe { self.interleaved_avx512::<ANY>(rays, &may_hit, &mut put) },
             #[cfg(not(target_arch = "x86_64"))]
             _ => unreachable!(),
         }
     }
 
     #[inline(never)]
-    fn interleaved_scalar<const ANY: bool>(&self, rays: &[RaySegment], put: &mut impl FnMut(usize, Option<MeshHit>)) {
+    fn interleaved_scalar<const ANY: bool>(
+        &self,
+        rays: &[RaySegment],
+        may_hit: &impl Fn(&RaySegment) -> bool,
+        put: &mut impl FnMut(usize, Option<MeshHit>),
+    ) {
         // SAFETY: the scalar instantiation runs no SIMD instruction beyond SSE.
-        unsafe { self.interleaved::<false, ANY>(rays, put) }
+        unsafe { self.interleaved::<false, ANY>(rays, may_hit, put) }
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,popcnt,bmi1,lzcnt")]
-    unsafe fn interleaved_avx2<const ANY: bool>(&self, rays: &[RaySegment], put: &mut impl FnMut(usize, Option<MeshHit>)) {
+    unsafe fn interleaved_avx2<const ANY: bool>(
+        &self,
+        rays: &[RaySegment],
+        may_hit: &impl Fn(&RaySegment) -> bool,
+        put: &mut impl FnMut(usize, Option<MeshHit>),
+    ) {
         // SAFETY: this function's features are what `interleaved::<true, _>` needs.
-        unsafe { self.interleaved::<true, ANY>(rays, put) }
+        unsafe { self.interleaved::<true, ANY>(rays, may_hit, put) }
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,popcnt,bmi1,lzcnt,avx512f,avx512vl,avx512dq,avx512bw")]
-    unsafe fn interleaved_avx512<const ANY: bool>(&self, rays: &[RaySegment], put: &mut impl FnMut(usize, Option<MeshHit>)) {
+    unsafe fn interleaved_avx512<const ANY: bool>(
+        &self,
+        rays: &[RaySegment],
+        may_hit: &impl Fn(&RaySegment) -> bool,
+        put: &mut impl FnMut(usize, Option<MeshHit>),
+    ) {
         // SAFETY: as above.
-        unsafe { self.interleaved::<true, ANY>(rays, put) }
+        unsafe { self.interleaved::<true, ANY>(rays, may_hit, put) }
     }
 
     /// The interleaved loop: up to [`IN_FLIGHT`] slots, each stepped one node at a time in
@@ -164,7 +187,12 @@ impl WideBvh {
     /// With `SIMD`, the CPU must have what [`SimdLevel::Avx2`] names. The tree must be at
     /// most 16 levels deep and not empty ([`WideBvh::interleaves`]).
     #[inline(always)]
-    unsafe fn interleaved<const SIMD: bool, const ANY: bool>(&self, rays: &[RaySegment], put: &mut impl FnMut(usize, Option<MeshHit>)) {
+    unsafe fn interleaved<const SIMD: bool, const ANY: bool>(
+        &self,
+        rays: &[RaySegment],
+        may_hit: &impl Fn(&RaySegment) -> bool,
+        put: &mut impl FnMut(usize, Option<MeshHit>),
+    ) {
         debug_assert!(self.stack_entries() <= SLOT_STACK && self.root != EMPTY);
         let mut stacks = [[const { std::mem::MaybeUninit::<(u32, f32)>::uninit() }; SLOT_STACK]; IN_FLIGHT];
         let mut slots: [Option<Slot>; IN_FLIGHT] = [const { None }; IN_FLIGHT];
@@ -174,7 +202,7 @@ impl WideBvh {
             while let Some(r) = rays.get(next) {
                 let (index, ray) = (next, r.ray());
                 next += 1;
-                if !ray.is_valid() {
+                if !ray.is_valid() || !may_hit(r) {
                     put(index, None);
                     continue;
                 }
