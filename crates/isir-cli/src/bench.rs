@@ -54,6 +54,11 @@ pub struct BenchArgs {
     /// medians, and the ratio's median with its range: the machine's noise in one table.
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=99))]
     pub rounds: u32,
+    /// When isir's threads trace 16 rays at a time (auto: when the tree is larger than the
+    /// CPU's last-level cache; always; never: one ray after the other, as Embree's single
+    /// rays go).
+    #[arg(long, default_value = "auto")]
+    pub interleave: isir::wide::Interleave,
 }
 
 /// One round of measurements: isir's build and traces, then each engine's on the same files.
@@ -245,6 +250,7 @@ fn bench_in(
     for _ in 0..a.rounds {
         // ---- isir: one timed build, then every set traced with that tree ----
         let b = build_timed(&mut mesh, Accel::BvhSah, a.repeat, None)?;
+        mesh.set_interleave(a.interleave);
         let mut ours: Vec<TraceFigures> = sets
             .iter()
             .map(|(_, kind, set, _)| {
@@ -278,13 +284,17 @@ fn bench_in(
 
     // ---- Table ----
     println!(
-        "isir bench: {name}, {} triangles ({} degenerate), {}x{} rays, {}, isir simd {}{}{}",
+        "isir bench: {name}, {} triangles ({} degenerate), {}x{} rays, {}, isir simd {} ({}){}{}",
         build.stats.triangles,
         build.stats.degenerate,
         a.width,
         a.height,
         threads_phrase(threads),
         build.simd,
+        match mesh.rays_in_flight() {
+            1 => "single rays one at a time".to_string(),
+            n => format!("single rays {n} at a time per thread"),
+        },
         engine_summary(engines, &a.embree_quality),
         if a.rounds > 1 { format!(", medians of {} rounds", a.rounds) } else { String::new() }
     );

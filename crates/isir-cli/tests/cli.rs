@@ -424,6 +424,25 @@ fn one_thread_is_one_thread() {
         isir(&["bench", "tp4-sphere", "--width", "8", "--height", "8", "--repeat", "1", "--no-embree", "--threads", "1"]);
     assert_eq!(code, 0, "{err}");
     assert!(out.contains(" 1 thread,") && !out.contains("1 threads"), "{out}");
+    // A small mesh's rays one at a time, unless asked otherwise: the same hits either way.
+    assert!(out.contains("(single rays one at a time)"), "{out}");
+    let (code, out16, err) = isir(&[
+        "bench",
+        "tp4-sphere",
+        "--width",
+        "8",
+        "--height",
+        "8",
+        "--repeat",
+        "1",
+        "--no-embree",
+        "--threads",
+        "1",
+        "--interleave",
+        "always",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out16.contains("(single rays 16 at a time per thread)"), "{out16}");
 }
 
 #[test]
