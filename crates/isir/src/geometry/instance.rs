@@ -8,7 +8,7 @@ use crate::accel::wide::TraversalStats;
 use crate::accel::MeshHit;
 use crate::geometry::TriangleMesh;
 use crate::math::aabb::Aabb;
-use crate::math::ray::{gamma, Ray};
+use crate::math::ray::{gamma, Ray, RayLanes, LANES};
 use glam::{Affine3A, Mat3, Vec2, Vec3};
 use std::sync::Arc;
 
@@ -66,6 +66,21 @@ impl Instance {
 
     fn object_ray(&self, ray: &Ray) -> Ray {
         Ray::new(self.to_object.transform_point3(ray.origin), self.to_object.transform_vector3(ray.direction))
+    }
+
+    /// The rays of `rays` carried into the mesh's space, lane by lane as
+    /// [`Instance::intersect`] carries one (the same floats), their intervals unchanged.
+    #[must_use]
+    pub(crate) fn object_lanes(&self, rays: &RayLanes) -> RayLanes {
+        let mut local = *rays;
+        for k in 0..LANES {
+            let r = self.object_ray(&rays.ray(k));
+            for axis in 0..3 {
+                local.o[axis][k] = r.origin[axis];
+                local.d[axis][k] = r.direction[axis];
+            }
+        }
+        local
     }
 
     /// The closest hit in `[t_min, t_max)` (the same `t` as along the world ray).

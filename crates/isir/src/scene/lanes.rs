@@ -4,7 +4,8 @@
 //!
 //! Spheres and planes are tested against all the lanes in one vectorised loop each
 //! ([`crate::geometry::Sphere::closest_lanes`], [`crate::geometry::Plane::closest_lanes`]);
-//! meshes and the other shapes take the lanes one by one. Objects are met in the order of
+//! a mesh's lanes, or an instance's carried into its mesh's space, go down its tree
+//! together; the other shapes take the lanes one by one. Objects are met in the order of
 //! [`Scene::intersect`], so ties between objects go to the same one.
 
 use super::{Scene, MESH_PACKET_FROM};
@@ -107,6 +108,20 @@ impl Scene {
                     let near = m.may_hit_lanes(rays) & valid_lanes;
                     let mut found = [None; LANES];
                     m.intersect_lanes_near(rays, &t_best, near, &mut found);
+                    for k in lanes_of(near) {
+                        if let Some(h) = found[k] {
+                            t_best[k] = h.t;
+                            (hits.object[k], hits.prim[k], hits.u[k], hits.v[k]) = (i as u32, h.prim, h.u, h.v);
+                        }
+                    }
+                }
+                Geometry::Instance(inst) => {
+                    // The same in the mesh's space: the lanes' rays carried there as
+                    // `Instance::intersect` carries each (the same `t`).
+                    let local = inst.object_lanes(rays);
+                    let near = inst.mesh.may_hit_lanes(&local) & valid_lanes;
+                    let mut found = [None; LANES];
+                    inst.mesh.intersect_lanes_near(&local, &t_best, near, &mut found);
                     for k in lanes_of(near) {
                         if let Some(h) = found[k] {
                             t_best[k] = h.t;
@@ -267,6 +282,15 @@ impl Scene {
                         m.occluded_lanes(rays, near)
                     }
                 }
+                Geometry::Instance(inst) => {
+                    let local = inst.object_lanes(rays);
+                    let near = open & inst.mesh.may_hit_lanes(&local);
+                    if (near.count_ones() as usize) < MESH_PACKET_FROM {
+                        lanes_of(near).fold(0, |acc, k| acc | single(i, k))
+                    } else {
+                        inst.mesh.occluded_lanes(&local, near)
+                    }
+                }
                 _ => lanes_of(open).fold(0, |acc, k| acc | single(i, k)),
             };
             occluded |= blocked;
@@ -333,8 +357,11 @@ mod tests {
     #[test]
     fn occluded_lanes_answer_as_occluded() {
         let mut rng = Sampler::from_seed(11);
-        for name in ["tp2-plane-point", "tp4-bunny", "tp6-glass", "tp7-implicit", "tp4-sphere"] {
-            let desc = scenes::builtin(name).unwrap();
+        for name in ["tp2-plane-point", "tp4-bunny", "tp6-glass", "tp7-implicit", "tp4-sphere", "instanced tp4-bunny"] {
+            let desc = match name.strip_prefix("instanced ") {
+                Some(n) => instanced(n),
+                None => scenes::builtin(name).unwrap(),
+            };
             let mut scene = desc.build(Accel::BvhSah).unwrap();
             if name == "tp4-sphere" {
                 scene.build_top_level();
@@ -442,6 +469,22 @@ mod tests {
         }
     }
 
+    /// `name`'s scene with its meshes placed as instances (scaled, turned and moved a
+    /// little, so that the rays are carried into the mesh's space by a real transform).
+    fn instanced(name: &str) -> scenes::SceneDescription {
+        let mut desc = scenes::builtin(name).unwrap();
+        let mut placed = 0;
+        for o in &mut desc.objects {
+            if let scenes::ShapeDesc::Mesh { source, shading } = &o.shape {
+                let transform = scenes::Transform { translate: Vec3::new(0.1, -0.05, 0.2), rotate: Vec3::new(0.0, 12.0, 3.0), scale: 1.1 };
+                o.shape = scenes::ShapeDesc::MeshInstance { source: source.clone(), shading: *shading, transform };
+                placed += 1;
+            }
+        }
+        assert_eq!(placed, 1, "{name}: one mesh to place");
+        desc
+    }
+
     /// Every lane finds the hit of `Scene::intersect`, field for field, on scenes of
     /// spheres, planes, meshes, an implicit surface and a top-level BVH, with invalid rays,
     /// NaN intervals and partial groups among them.
@@ -459,8 +502,10 @@ mod tests {
             many.objects.push(s);
         }
         let mut rng = Sampler::from_seed(3);
-        for desc in
-            ["tp2-plane-point", "tp4-bunny", "tp6-glass", "tp7-implicit"].map(|n| scenes::builtin(n).unwrap()).into_iter().chain([many])
+        for desc in ["tp2-plane-point", "tp4-bunny", "tp6-glass", "tp7-implicit"]
+            .map(|n| scenes::builtin(n).unwrap())
+            .into_iter()
+            .chain([many, instanced("tp4-bunny")])
         {
             let scene = desc.build(Accel::BvhSah).unwrap();
             let camera = desc.camera.build(1.5);
