@@ -31,8 +31,8 @@ const SLOT_STACK: usize = stack_entries(16);
 /// are interleaved.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Interleave {
-    /// When the tree is larger than the CPU's last-level cache
-    /// ([`crate::accel::memory::last_level_cache_bytes`]).
+    /// When the tree is larger than the CPU's last-level cache (its size read from
+    /// `sysfs` on Linux; 32 MiB where it cannot be read).
     #[default]
     Auto,
     /// Always (trees up to 16 levels deep).
