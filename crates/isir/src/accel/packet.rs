@@ -17,7 +17,7 @@
 
 #[cfg(target_arch = "x86_64")]
 use crate::accel::wide::stream::{LanePair, LanesUpTo, MaskedLanes};
-use crate::accel::wide::{SimdLevel, WideBvh};
+use crate::accel::wide::{SimdLevel, WideBvh, SMALL_STACK};
 use crate::accel::MeshHit;
 use crate::math::ray::{lanes_of, RayLanes, RaySegment, LANES};
 use glam::Vec3;
@@ -27,13 +27,6 @@ pub const PACKET: usize = 16;
 
 /// An AVX-512 packet's leaf that at most this many of its rays reach is tested ray by ray.
 const LEAF_ALONE: u32 = 6;
-
-/// The AVX-512 packets' stack for trees at most 16 wide nodes deep (`7 · 16 + 8` entries),
-/// nearly every tree: 7.7 KB of entry distances instead of the 43.5 KB of
-/// [`crate::accel::wide::STACK_SIZE`]. PERF: the larger frame's stack probes (a store per
-/// 4 KB page at every call, one call per packet) cost the conference room's primary
-/// packets 9% (23.5 -> 25.7 Mrays/s, one thread), the dragon's 10%.
-pub(crate) const SMALL_STACK: usize = crate::accel::wide::stack_entries(16);
 
 impl WideBvh {
     /// Closest hits of up to [`PACKET`] rays (`out[i]` for `rays[i]`): those of
@@ -47,10 +40,14 @@ impl WideBvh {
         assert!(rays.len() <= PACKET && out.len() >= rays.len());
         #[cfg(target_arch = "x86_64")]
         if self.level() == SimdLevel::Avx512 && !self.watertight && self.root != crate::accel::wide::EMPTY {
+            // PERF: the small stack where the tree fits it (nearly every tree): the full
+            // one's frame is probed page by page (a store per 4 KB) at every call, one call
+            // per packet: the conference room's primary packets 9% slower (23.5 -> 25.7
+            // Mrays/s, one thread), the dragon's 10%.
             // SAFETY: the level is only ever Avx512 when the CPU reported AVX-512, and each
             // stack holds the `7 · depth + 8` entries of this tree (`from_bvh` checked it
             // against `STACK_SIZE`).
-            let done = if self.stack_entries() <= SMALL_STACK {
+            let done = if self.fits_small_stack() {
                 unsafe { self.packet_avx512::<SMALL_STACK>(rays, out) }
             } else {
                 unsafe { self.packet_avx512::<{ crate::accel::wide::STACK_SIZE }>(rays, out) }
@@ -423,7 +420,7 @@ mod tests {
         let scene = desc.build(crate::accel::Accel::BvhSah).expect("the conference room builds");
         let (_, mesh) = scene.meshes().next().expect("one mesh");
         let crate::geometry::MeshAccel::Wide(w) = mesh.accel() else { panic!("bvh-sah builds a wide BVH") };
-        assert!(w.stack_entries() <= SMALL_STACK, "the conference room's tree ({} stack entries) takes the small stack", w.stack_entries());
+        assert!(w.fits_small_stack(), "the conference room's tree ({} stack entries) takes the small stack", w.stack_entries());
         let camera = desc.camera.build(1.5);
         let rays = crate::rays::generate(&scene, &camera, 48, 32, crate::rays::RayKind::Primary, 1).expect("camera rays");
         let (mut checked, mut packets) = (0, 0);

@@ -610,13 +610,10 @@ impl TriangleMesh {
     /// # Panics
     /// If `out` is shorter than `rays`.
     pub fn intersect_batch(&self, rays: &[crate::math::ray::RaySegment], out: &mut [Option<MeshHit>]) {
+        assert!(out.len() >= rays.len(), "one answer per ray");
         match &self.accel {
-            MeshAccel::Wide(w) if w.interleaves() => {
-                assert!(out.len() >= rays.len(), "one answer per ray");
-                w.batch::<false>(rays, self.may_hit_filter(), |i, h| out[i] = h);
-            }
+            MeshAccel::Wide(w) if w.interleaves() => w.batch::<false>(rays, self.may_hit_filter(), |i, h| out[i] = h),
             _ => {
-                assert!(out.len() >= rays.len(), "one answer per ray");
                 for (o, r) in out.iter_mut().zip(rays) {
                     *o = self.intersect(&r.ray(), r.t_min, r.t_max);
                 }
@@ -629,13 +626,10 @@ impl TriangleMesh {
     /// # Panics
     /// If `out` is shorter than `rays`.
     pub fn occluded_batch(&self, rays: &[crate::math::ray::RaySegment], out: &mut [bool]) {
+        assert!(out.len() >= rays.len(), "one answer per ray");
         match &self.accel {
-            MeshAccel::Wide(w) if w.interleaves() => {
-                assert!(out.len() >= rays.len(), "one answer per ray");
-                w.batch::<true>(rays, self.may_hit_filter(), |i, h| out[i] = h.is_some());
-            }
+            MeshAccel::Wide(w) if w.interleaves() => w.batch::<true>(rays, self.may_hit_filter(), |i, h| out[i] = h.is_some()),
             _ => {
-                assert!(out.len() >= rays.len(), "one answer per ray");
                 for (o, r) in out.iter_mut().zip(rays) {
                     *o = self.occluded(&r.ray(), r.t_min, r.t_max);
                 }

@@ -23,10 +23,6 @@ use crate::math::ray::RaySegment;
 /// one at a time 2.9 Mrays/s, 8 in flight 6.0, 16 6.3, 32 6.3.
 pub const IN_FLIGHT: usize = 16;
 
-/// The stack entries of one ray in flight: trees up to 16 levels deep (nearly all);
-/// deeper ones are traced one ray at a time.
-const SLOT_STACK: usize = stack_entries(16);
-
 /// When the rays of a batch ([`WideBvh::intersect_batch`], [`WideBvh::occluded_batch`])
 /// are interleaved.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -76,7 +72,9 @@ struct Slot {
     index: usize,
 }
 
-type SlotStack = [std::mem::MaybeUninit<(u32, f32)>; SLOT_STACK];
+/// A ray in flight's stack: trees up to 16 levels deep (nearly all; deeper ones are
+/// traced one ray at a time).
+type SlotStack = [std::mem::MaybeUninit<(u32, f32)>; SMALL_STACK];
 
 impl WideBvh {
     /// When this tree's batches are interleaved.
@@ -87,7 +85,7 @@ impl WideBvh {
     /// True when this tree's batches are traced [`IN_FLIGHT`] rays at a time.
     #[must_use]
     pub fn interleaves(&self) -> bool {
-        let fits = self.stack_entries() <= SLOT_STACK && self.root != EMPTY;
+        let fits = self.fits_small_stack() && self.root != EMPTY;
         fits && match self.interleave {
             Interleave::Auto => self.bytes() > crate::accel::memory::last_level_cache_bytes(),
             Interleave::Always => true,
@@ -193,8 +191,8 @@ impl WideBvh {
         may_hit: &impl Fn(&RaySegment) -> bool,
         put: &mut impl FnMut(usize, Option<MeshHit>),
     ) {
-        debug_assert!(self.stack_entries() <= SLOT_STACK && self.root != EMPTY);
-        let mut stacks = [[const { std::mem::MaybeUninit::<(u32, f32)>::uninit() }; SLOT_STACK]; IN_FLIGHT];
+        debug_assert!(self.fits_small_stack() && self.root != EMPTY);
+        let mut stacks = [[const { std::mem::MaybeUninit::<(u32, f32)>::uninit() }; SMALL_STACK]; IN_FLIGHT];
         let mut slots: [Option<Slot>; IN_FLIGHT] = [const { None }; IN_FLIGHT];
         let mut next = 0usize;
         // The batch's next valid ray as a slot (invalid rays answered `None` on the way).
@@ -260,7 +258,7 @@ impl WideBvh {
             };
             if mask != 0 {
                 // SAFETY: at most seven entries pushed per level and the tree is at most
-                // 16 levels deep, so `sp` stays within `SLOT_STACK`; the caller guarantees
+                // 16 levels deep, so `sp` stays within `SMALL_STACK`; the caller guarantees
                 // AVX2 with `SIMD`.
                 slot.cur = unsafe { push_children::<SIMD, ANY>(node, mask, &dist, stack, &mut sp) };
                 slot.sp = sp;
@@ -271,13 +269,7 @@ impl WideBvh {
             for b in leaf_blocks(cur) {
                 // SAFETY: leaf codes are written by `convert` and index `tris`.
                 let tri = unsafe { self.tris.get_unchecked(b) };
-                let hit = if let Some(w) = &slot.watertight {
-                    tri4_watertight(tri, w, slot.t_min, slot.t_best)
-                } else if SIMD {
-                    tri4_sse::<ANY>(tri, &slot.pre, slot.t_min, slot.t_best)
-                } else {
-                    tri4_scalar(tri, &slot.ray, slot.t_min, slot.t_best)
-                };
+                let hit = tri4_test::<SIMD, ANY>(tri, slot.watertight.as_ref(), &slot.pre, &slot.ray, slot.t_min, slot.t_best);
                 if let Some(h) = hit {
                     slot.best = Some(h);
                     if ANY {

@@ -124,6 +124,27 @@ pub(super) fn tri4_scalar(tri: &Tri4, ray: &Ray, t_min: f32, t_max: f32) -> Opti
     tri4_lanes(tri, t_min, t_max, |v0, e1, e2, t0, t1| moller_trumbore_edges(ray, v0, e1, e2, t0, t1))
 }
 
+/// The test of a block on a code path: the watertight test where the tree has one
+/// (`watertight`), otherwise Möller–Trumbore with SSE (`SIMD`) or scalar, the same floats.
+/// The single ray's leaf and the interleaved rays' ([`WideBvh::traverse`], `interleave`).
+#[inline(always)]
+pub(super) fn tri4_test<const SIMD: bool, const ANY: bool>(
+    tri: &Tri4,
+    watertight: Option<&WatertightRay>,
+    pre: &RayPre,
+    ray: &Ray,
+    t_min: f32,
+    t_max: f32,
+) -> Option<MeshHit> {
+    if let Some(w) = watertight {
+        tri4_watertight(tri, w, t_min, t_max)
+    } else if SIMD {
+        tri4_sse::<ANY>(tri, pre, t_min, t_max)
+    } else {
+        tri4_scalar(tri, ray, t_min, t_max)
+    }
+}
+
 /// The watertight test on a block built with exact vertices.
 #[inline(always)]
 pub(super) fn tri4_watertight(tri: &Tri4, w: &WatertightRay, t_min: f32, t_max: f32) -> Option<MeshHit> {

@@ -51,6 +51,10 @@ pub(crate) const FIRST_MASK: u32 = (1 << BLOCKS_SHIFT) - 1;
 const MAX_BLOCKS: usize = 8;
 /// Traversal stack entries: at most seven pushes per level.
 pub(crate) const STACK_SIZE: usize = stack_entries(crate::accel::bvh::STACK_SIZE);
+/// The stack of trees at most 16 wide nodes deep (`7 · 16 + 8` entries), nearly every
+/// tree ([`WideBvh::fits_small_stack`]): the AVX-512 packets' (7.7 KB of entry distances
+/// instead of 43.5 KB, `accel::packet`) and each interleaved ray's (`interleave`).
+pub(crate) const SMALL_STACK: usize = stack_entries(16);
 /// Box distances are widened by a few ULPs so that rounding in the box test never culls a
 /// triangle the exact test would hit (the conservative traversal of pbrt and Embree).
 /// The interval `[near, far]` becomes `[near - |near|·WIDEN, far + |far|·WIDEN]`, wider
@@ -420,6 +424,11 @@ impl WideBvh {
     /// The traversal stack entries this tree needs ([`stack_entries`] of its depth).
     pub(crate) fn stack_entries(&self) -> usize {
         stack_entries(self.depth)
+    }
+
+    /// True when [`SMALL_STACK`] holds this tree's traversal stack.
+    pub(crate) fn fits_small_stack(&self) -> bool {
+        self.stack_entries() <= SMALL_STACK
     }
 }
 

@@ -228,13 +228,7 @@ impl WideBvh {
                     if STATS {
                         stats.triangles += 4;
                     }
-                    let hit = if let Some(w) = &watertight {
-                        tri4_watertight(tri, w, t_min, t_best)
-                    } else if SIMD {
-                        tri4_sse::<ANY>(tri, &pre, t_min, t_best)
-                    } else {
-                        tri4_scalar(tri, ray, t_min, t_best)
-                    };
+                    let hit = tri4_test::<SIMD, ANY>(tri, watertight.as_ref(), &pre, ray, t_min, t_best);
                     if let Some(h) = hit {
                         if ANY {
                             return Some(h);
