@@ -36,7 +36,7 @@ impl Integrator {
         assert!(n <= LANES && out.len() >= n);
         counters.primary += n as u64;
         let closest = scene.intersect_lanes(rays, n);
-        let hits = scene.lane_hits(rays, &closest, n);
+        let mut hits = scene.lane_hits(rays, &closest, n);
         match *self {
             Integrator::DirectLighting { light_samples } => direct_lanes(scene, rays, &hits, light_samples, samplers, counters, out),
             Integrator::Whitted { light_samples, max_depth } => {
@@ -53,7 +53,7 @@ impl Integrator {
                 }
             }
             Integrator::Path { light_samples, max_depth } => {
-                path_lanes(scene, rays, hits, light_samples, max_depth, samplers, counters, out)
+                path_lanes(scene, rays, &mut hits, light_samples, max_depth, samplers, counters, out)
             }
             Integrator::RayCast => {
                 for k in 0..n {
@@ -72,17 +72,20 @@ impl Integrator {
 /// [`Path::step`] (the lane's own sampler, the same operations as one path at a time),
 /// run phase by phase over the lanes, and every bounce's next hits come from one
 /// [`Scene::intersect_lanes`] over the paths still going (the others are zero rays,
-/// which meet nothing).
+/// which meet nothing). `hits` holds the camera rays' hits, then each bounce's.
 /// PERF: one path at a time, a vertex is one long chain of dependent operations (square
 /// roots, divisions, a sine and cosine); phase by phase the CPU overlaps the lanes'
 /// chains, and the arithmetic phases are SIMD loops over the lanes (`LightLanes`,
 /// `cosine_hemisphere_lanes`, `spawn_lanes`, `LightSampler::intersect_lanes`). Path,
 /// Lambert, tp6-matte 16 spp 1.67 -> 1.04 s over the tenth session (ARCHITECTURE.md).
+/// Out of line: inlined into `li_lanes`, tp6-glass-quad took 1.04 of the time and
+/// tp6-matte 1.02 (minima of 9).
 #[allow(clippy::too_many_arguments)]
+#[inline(never)]
 fn path_lanes(
     scene: &Scene,
     rays: &RayLanes,
-    first: [Option<Hit>; LANES],
+    hits: &mut [Option<Hit>; LANES],
     light_samples: u32,
     max_depth: u32,
     samplers: &mut [Sampler],
@@ -91,9 +94,17 @@ fn path_lanes(
 ) {
     let n = samplers.len();
     let mut paths = [Path::new(); LANES];
-    // The rays followed (the camera's, then each bounce's).
-    let mut cur = *rays;
-    let mut hits = first;
+    // The rays followed (the camera's, then each bounce's) and the next ones, taking turns.
+    // PERF: the per-bounce arrays live across the bounces, each lane written before it is
+    // read: made afresh each bounce, their zeroing and copies (`memset`, `memcpy`) were
+    // 7% of tp6-matte's samples (`perf`); kept, tp6-matte took 0.95 of the time and
+    // tp6-glass-quad 0.97 (path, Lambert, minima of 9).
+    let mut ray_pair = [*rays, RayLanes::EMPTY];
+    let mut turn = 0;
+    let mut wo = [Vec3::ZERO; LANES];
+    let mut bs = [None; LANES];
+    let (mut normals, mut xi) = ([[0f32; LANES]; 3], [Vec2::ZERO; LANES]);
+    let (mut from, mut wi) = (SurfaceLanes::default(), [[0f32; LANES]; 3]);
     let mut active: u32 = if n == 0 { 0 } else { u32::MAX >> (32 - n) };
     // A scene lit by one point light: the sixteen paths' samples and shadow rays set up
     // together (`LightLanes`), the rays left for one `occluded_lanes` (`Path::defer_point`).
@@ -106,17 +117,19 @@ fn path_lanes(
     let surface_lights = scene.lights.iter().any(Light::is_surface);
     let quad_in_lanes = lights.len() == 1 && matches!(lights[0], LightSampler::Quad { .. }) && light_samples.max(1) < BATCH_FROM;
     loop {
-        let mut next = RayLanes::EMPTY;
+        let (cur, next) = match &mut ray_pair {
+            [a, b] if turn == 0 => (&*a, b),
+            [a, b] => (&*b, a),
+        };
         let mut ended = 0u32;
         // Each vertex as `Path::step`'s phases, each a pass over the lanes (each lane's
         // random numbers drawn in the same order): the light met on the way, next-event
         // estimation, the BSDF samples, the throughput and the next rays.
-        let mut wo = [Vec3::ZERO; LANES];
         // `Path::arrive`: the quad lights met by all the lanes at once, light by light.
         if surface_lights {
             let t_hit: [f32; LANES] = std::array::from_fn(|k| hits[k].as_ref().map_or(cur.t_max[k], |h| h.t));
             for light in &lights {
-                let met = light.intersect_lanes(&cur, &t_hit, active);
+                let met = light.intersect_lanes(cur, &t_hit, active);
                 for k in lanes_of(met.met) {
                     let Some(lh) = met.hit(k, light.emitted()) else { unreachable!("a lane that met the light has its hit") };
                     paths[k].meet_light(&lh, light_samples);
@@ -132,18 +145,18 @@ fn path_lanes(
             }
         }
         let going = active & !ended;
-        // With one point light: its lanes (whose shadow rays the deferred samples trace)
-        // and the lanes whose samples wait for their ray.
-        let mut point = None;
-        let mut traced = 0u32;
         if defer {
             // The point light's samples and shadow rays of every lane at once; each
             // lane's two numbers drawn as `next_event` draws them (a point needs none).
-            let nee = nee_lanes(scene, &hits, going);
+            let nee = nee_lanes(scene, hits, going);
             for k in lanes_of(nee) {
                 samplers[k].next_2d();
             }
-            let batch = point.insert(LightLanes::new(&lights[0], &hits, &[Vec2::ZERO; BATCH]));
+            // PERF: a local, built in place: kept across the bounces (an `Option`, then a
+            // variable), each bounce's 1.3 kB batch was copied into it.
+            let batch = LightLanes::new(&lights[0], hits, &[Vec2::ZERO; BATCH]);
+            // The lanes whose shadow rays the deferred samples trace.
+            let mut traced = 0u32;
             for k in lanes_of(nee) {
                 let Some(hit) = &hits[k] else { unreachable!("an arrived lane has a hit") };
                 if let Some(d) = paths[k].defer_point(scene, hit, wo[k], &batch.sample(k), batch.has_ray[k], counters) {
@@ -151,8 +164,16 @@ fn path_lanes(
                     traced |= 1 << k;
                 }
             }
+            // Each path's radiance gains the answer where `next_event` adds it: nothing
+            // else is added to it before the next vertex.
+            if traced != 0 {
+                let blocked = scene.occluded_lanes(&batch.rays, traced);
+                for k in lanes_of(traced) {
+                    paths[k].finish_shadow(&deferred[k], blocked & (1 << k) != 0);
+                }
+            }
         } else if quad_in_lanes {
-            quad_nee_lanes(scene, &lights[0], &hits, &wo, going, light_samples.max(1), &mut paths, samplers, counters);
+            quad_nee_lanes(scene, &lights[0], hits, &wo, going, light_samples.max(1), &mut paths, samplers, counters);
         } else {
             for k in lanes_of(going) {
                 let Some(hit) = &hits[k] else { unreachable!("an arrived lane has a hit") };
@@ -162,8 +183,7 @@ fn path_lanes(
         // The BSDF samples: the cosine lobe's directions of all the lanes at once, the
         // other materials' lane by lane (each lane's numbers drawn as `sample_bsdf` draws
         // them).
-        let mut bs = [None; LANES];
-        let (mut normals, mut xi, mut lobe) = ([[0f32; LANES]; 3], [Vec2::ZERO; LANES], 0u32);
+        let mut lobe = 0u32;
         for k in lanes_of(going) {
             let Some(hit) = &hits[k] else { unreachable!("a gathered lane has a hit") };
             if scene.material(hit).samples_cosine_lobe() {
@@ -186,7 +206,7 @@ fn path_lanes(
             }
         }
         // The paths that go on, and their next rays, all spawned together.
-        let (mut from, mut wi, mut spawned) = (SurfaceLanes::default(), [[0f32; LANES]; 3], 0u32);
+        let mut spawned = 0u32;
         for k in lanes_of(going) {
             let Some(w) = paths[k].advance(bs[k], &mut samplers[k], counters) else {
                 ended |= 1 << k;
@@ -201,13 +221,7 @@ fn path_lanes(
             }
             spawned |= 1 << k;
         }
-        spawn_lanes(&from, &wi, spawned, &mut next);
-        if let (Some(batch), true) = (&point, traced != 0) {
-            let blocked = scene.occluded_lanes(&batch.rays, traced);
-            for k in lanes_of(traced) {
-                paths[k].finish_shadow(&deferred[k], blocked & (1 << k) != 0);
-            }
-        }
+        spawn_lanes(&from, &wi, spawned, next);
         for k in lanes_of(ended) {
             active &= !(1 << k);
             out[k] = paths[k].l;
@@ -215,9 +229,9 @@ fn path_lanes(
         if active == 0 {
             break;
         }
-        let closest = scene.intersect_lanes(&next, LANES);
-        hits = scene.lane_hits(&next, &closest, LANES);
-        cur = next;
+        let closest = scene.intersect_lanes(next, LANES);
+        scene.lane_hits_into(next, &closest, LANES, hits);
+        turn ^= 1;
     }
 }
 
