@@ -9,7 +9,7 @@
 //! [`Scene::intersect`], so ties between objects go to the same one.
 
 use super::{Scene, MESH_PACKET_FROM};
-use crate::geometry::{Geometry, Hit, TriangleLanes};
+use crate::geometry::{Geometry, Hit, ShapeLanes, TriangleLanes};
 use crate::math::ray::{lanes_of, RayLanes, LANES};
 
 /// The lanes of `live` whose rays are valid, in both batches. PERF: the lane loops eight
@@ -191,6 +191,47 @@ impl Scene {
                 TriangleLanes::new(&p, &hits.u, &hits.v)
             })
         });
+        // A scene of spheres and planes only (TP1–3, TP5, TP6): the hits' points, error
+        // bounds and normals for all the lanes at once (SIMD), then each hit built around
+        // them.
+        if self.flat().is_some() {
+            let mut shapes = ShapeLanes::EMPTY;
+            let mut lanes = 0u32;
+            for k in 0..count.min(LANES) {
+                let i = hits.object[k];
+                if i == NO_OBJECT {
+                    continue;
+                }
+                match &self.objects[i as usize].geometry {
+                    Geometry::Sphere(s) => shapes.set_sphere(k, s),
+                    Geometry::Plane(p) => shapes.set_plane(k, p),
+                    _ => unreachable!("a flat scene is spheres and planes"),
+                }
+                lanes |= 1 << k;
+            }
+            let g = shapes.hits(rays, &hits.t);
+            for k in lanes_of(lanes) {
+                let i = hits.object[k] as usize;
+                let o = &self.objects[i];
+                let (point, point_error, normal) = g.lane(k);
+                out[k] = Some(Hit {
+                    t: hits.t[k],
+                    point,
+                    point_error,
+                    normal,
+                    geometric_normal: normal,
+                    front_face: g.front[k],
+                    object: i as u32,
+                    prim: hits.prim[k],
+                    u: hits.u[k],
+                    v: hits.v[k],
+                    uv: glam::Vec2::ZERO,
+                    // `interaction_given`'s material: slot 0 of the object's.
+                    material: o.materials[0],
+                });
+            }
+            return;
+        }
         // Its own loop: one loop taking an optional geometry made tp4-sphere 2% slower.
         if let Some(g) = geometry {
             for (k, slot) in out.iter_mut().enumerate().take(count) {
