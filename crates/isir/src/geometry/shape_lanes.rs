@@ -106,15 +106,16 @@ impl ShapeLanes {
         for j in 0..LANES {
             // `Ray::at`: origin + t · direction.
             let q = [o[0][j] + t[j] * d[0][j], o[1][j] + t[j] * d[1][j], o[2][j] + t[j] * d[2][j]];
+            // The point relative to the sphere's centre or the plane's point (`local` in
+            // `Sphere::surface_point`, `rel` in `Plane::surface_point`).
+            let rel = [q[0] - c[0][j], q[1] - c[1][j], q[2] - c[2][j]];
             // ---- Sphere::surface_point, then its normal ----
-            let l = [q[0] - c[0][j], q[1] - c[1][j], q[2] - c[2][j]];
-            let len = (l[0] * l[0] + l[1] * l[1] + l[2] * l[2]).sqrt();
+            let len = (rel[0] * rel[0] + rel[1] * rel[1] + rel[2] * rel[2]).sqrt();
             let scale = r[j] / len;
             let shrink = len > 0.0;
-            let l = [sel(shrink, l[0] * scale, l[0]), sel(shrink, l[1] * scale, l[1]), sel(shrink, l[2] * scale, l[2])];
+            let l = [sel(shrink, rel[0] * scale, rel[0]), sel(shrink, rel[1] * scale, rel[1]), sel(shrink, rel[2] * scale, rel[2])];
             let ps = [c[0][j] + l[0], c[1][j] + l[1], c[2][j] + l[2]];
             // ---- Plane::surface_point ----
-            let rel = [q[0] - c[0][j], q[1] - c[1][j], q[2] - c[2][j]];
             let dn = rel[0] * n[0][j] + rel[1] * n[1][j] + rel[2] * n[2][j];
             let pp = [q[0] - n[0][j] * dn, q[1] - n[1][j] * dn, q[2] - n[2][j] * dn];
             let m = max(rel[0].abs(), max(rel[1].abs(), rel[2].abs()));
