@@ -1,6 +1,6 @@
 //! The surface interaction: what every integrator and material reads of a hit.
 
-use crate::math::ray::{spawn_ray, spawn_ray_to, Ray, ShadowRays};
+use crate::math::ray::{spawn_ray, spawn_ray_to, Ray, ShadowRays, SurfaceLanes, LANES};
 use glam::Vec3;
 
 /// Index of a material in its [`crate::Scene`].
@@ -80,5 +80,42 @@ impl Hit {
     #[must_use]
     pub fn shadow_rays(&self) -> ShadowRays {
         ShadowRays::new(self.point, self.point_error, self.geometric_normal)
+    }
+}
+
+/// What the lanes' SIMD phases read of up to [`LANES`] hits, as rows (`[axis][lane]`):
+/// points, error bounds, geometric and shading normals. A lane without a hit holds
+/// zeros, what it reads of [`Hit::ZERO`].
+/// PERF: the path tracer's light samples, BSDF samples and next rays read these rows;
+/// gathered from the [`Hit`]s by each of them, the gathers were a part of every phase.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct HitRows {
+    /// Points, their error bounds and geometric normals: where rays leave from.
+    pub surface: SurfaceLanes,
+    /// Shading normals.
+    pub normal: [[f32; LANES]; 3],
+    /// The lanes with a hit.
+    pub mask: u32,
+}
+
+impl HitRows {
+    /// The rows of `hits`.
+    #[must_use]
+    #[inline(always)]
+    pub fn of(hits: &[Option<Hit>; LANES]) -> HitRows {
+        let mut rows = HitRows::default();
+        for (k, hit) in hits.iter().enumerate() {
+            // A lane without a hit reads one of zeros. PERF: a pointer chosen instead of a
+            // branch on each lane's hit, which mispredicted where paths had ended.
+            let h = hit.as_ref().unwrap_or(&Hit::ZERO);
+            rows.mask |= u32::from(hit.is_some()) << k;
+            for axis in 0..3 {
+                rows.surface.p[axis][k] = h.point[axis];
+                rows.surface.p_error[axis][k] = h.point_error[axis];
+                rows.surface.ng[axis][k] = h.geometric_normal[axis];
+                rows.normal[axis][k] = h.normal[axis];
+            }
+        }
+        rows
     }
 }

@@ -13,7 +13,7 @@ mod triangle_lanes;
 mod triangle_mesh;
 
 pub use crate::accel::MeshHit;
-pub use hit::{Hit, MaterialId};
+pub use hit::{Hit, HitRows, MaterialId};
 pub use implicit::{Implicit, Sdf};
 pub use instance::Instance;
 pub use plane::Plane;

@@ -10,7 +10,7 @@
 //! tp6-matte 0.987, tp6-glass-quad 0.96; Whitted and direct lighting within noise. Small:
 //! most of the cost left is building and reading the hits themselves.
 
-use super::{Plane, Sphere};
+use super::{HitRows, Plane, Sphere};
 use crate::math::ray::{gamma, RayLanes, LANES};
 use glam::Vec3;
 
@@ -37,6 +37,26 @@ pub(crate) struct ShapeHits {
 }
 
 impl ShapeHits {
+    /// The rows of the lanes `mask` ([`HitRows`]: the facing normal is both the
+    /// geometric and the shading one), zeros in the others.
+    /// PERF: the lanes kept with AND masks: as selects, LLVM writes masked stores
+    /// (`vmaskmovps`, slow on AMD).
+    #[inline(always)]
+    #[allow(clippy::needless_range_loop)] // one index into many arrays: the loop vectorises
+    pub(crate) fn rows_into(&self, mask: u32, rows: &mut HitRows) {
+        for k in 0..LANES {
+            let m = 0u32.wrapping_sub((mask >> k) & 1);
+            let keep = |x: f32| f32::from_bits(x.to_bits() & m);
+            for axis in 0..3 {
+                rows.surface.p[axis][k] = keep(self.point[axis][k]);
+                rows.surface.p_error[axis][k] = keep(self.error[axis][k]);
+                rows.surface.ng[axis][k] = keep(self.facing[axis][k]);
+                rows.normal[axis][k] = keep(self.facing[axis][k]);
+            }
+        }
+        rows.mask = mask;
+    }
+
     /// Lane `k`'s point, error bound and facing normal.
     #[inline(always)]
     pub(crate) fn lane(&self, k: usize) -> (Vec3, Vec3, Vec3) {

@@ -16,10 +16,10 @@ use super::direct::quad_light;
 use super::path::{defers_shadow, light_samplers, DeferredShadow, Path};
 use super::shadow::{live_mask, LambertLanes, LightLanes, QuadBatch, QuadScratch, BATCH, BATCH_FROM};
 use super::{whitted, Integrator, RayCounters};
-use crate::geometry::Hit;
+use crate::geometry::{Hit, HitRows};
 use crate::lights::{Light, LightSampler};
 use crate::math::color::Color;
-use crate::math::ray::{lane_mask, lanes_of, spawn_lanes, RayLanes, ShadowRays, SurfaceLanes, LANES};
+use crate::math::ray::{lane_mask, lanes_of, spawn_lanes, RayLanes, ShadowRays, LANES};
 use crate::math::sampling::{cosine_hemisphere_lanes, Sampler};
 use crate::scene::Scene;
 use glam::{Vec2, Vec3};
@@ -103,8 +103,12 @@ fn path_lanes(
     let mut turn = 0;
     let mut wo = [Vec3::ZERO; LANES];
     let mut bs = [None; LANES];
-    let (mut normals, mut xi) = ([[0f32; LANES]; 3], [Vec2::ZERO; LANES]);
-    let (mut from, mut wi) = (SurfaceLanes::default(), [[0f32; LANES]; 3]);
+    let (mut xi, mut wi) = ([Vec2::ZERO; LANES], [[0f32; LANES]; 3]);
+    // The hits' points and normals as rows, read by the SIMD phases (the light samples,
+    // the BSDF's cosine lobe and the next rays).
+    let mut rows = HitRows::of(hits);
+    // The light samples' batch, filled in place at each vertex (`defer`, `quad_nee_lanes`).
+    let mut batch = LightLanes::EMPTY;
     let mut active: u32 = if n == 0 { 0 } else { u32::MAX >> (32 - n) };
     // A scene lit by one point light: the sixteen paths' samples and shadow rays set up
     // together (`LightLanes`), the rays left for one `occluded_lanes` (`Path::defer_point`).
@@ -152,9 +156,7 @@ fn path_lanes(
             for k in lanes_of(nee) {
                 samplers[k].next_2d();
             }
-            // PERF: a local, built in place: kept across the bounces (an `Option`, then a
-            // variable), each bounce's 1.3 kB batch was copied into it.
-            let batch = LightLanes::new(&lights[0], hits, &[Vec2::ZERO; BATCH]);
+            batch.fill_rows(&lights[0], &rows, &[Vec2::ZERO; BATCH]);
             // The lanes whose shadow rays the deferred samples trace.
             let mut traced = 0u32;
             for k in lanes_of(nee) {
@@ -173,7 +175,7 @@ fn path_lanes(
                 }
             }
         } else if quad_in_lanes {
-            quad_nee_lanes(scene, &lights[0], hits, &wo, going, light_samples.max(1), &mut paths, samplers, counters);
+            quad_nee_lanes(scene, &lights[0], hits, &rows, &wo, going, light_samples.max(1), &mut paths, samplers, counters, &mut batch);
         } else {
             for k in lanes_of(going) {
                 let Some(hit) = &hits[k] else { unreachable!("an arrived lane has a hit") };
@@ -188,9 +190,6 @@ fn path_lanes(
             let Some(hit) = &hits[k] else { unreachable!("a gathered lane has a hit") };
             if scene.material(hit).samples_cosine_lobe() {
                 let (_u_lobe, u) = (samplers[k].next_f32(), samplers[k].next_2d());
-                for (axis, row) in normals.iter_mut().enumerate() {
-                    row[k] = hit.normal[axis];
-                }
                 xi[k] = u;
                 lobe |= 1 << k;
             } else {
@@ -198,7 +197,7 @@ fn path_lanes(
             }
         }
         if lobe != 0 {
-            let (wi, pdf) = cosine_hemisphere_lanes(&normals, &xi);
+            let (wi, pdf) = cosine_hemisphere_lanes(&rows.normal, &xi);
             for k in lanes_of(lobe) {
                 let Some(hit) = &hits[k] else { unreachable!("a gathered lane has a hit") };
                 let w = Vec3::new(wi[0][k], wi[1][k], wi[2][k]);
@@ -212,16 +211,12 @@ fn path_lanes(
                 ended |= 1 << k;
                 continue;
             };
-            let Some(hit) = &hits[k] else { unreachable!("a gathered lane has a hit") };
             for axis in 0..3 {
-                from.p[axis][k] = hit.point[axis];
-                from.p_error[axis][k] = hit.point_error[axis];
-                from.ng[axis][k] = hit.geometric_normal[axis];
                 wi[axis][k] = w[axis];
             }
             spawned |= 1 << k;
         }
-        spawn_lanes(&from, &wi, spawned, next);
+        spawn_lanes(&rows.surface, &wi, spawned, next);
         for k in lanes_of(ended) {
             active &= !(1 << k);
             out[k] = paths[k].l;
@@ -230,7 +225,7 @@ fn path_lanes(
             break;
         }
         let closest = scene.intersect_lanes(next, LANES);
-        scene.lane_hits_into(next, &closest, LANES, hits);
+        scene.lane_hit_rows_into(next, &closest, LANES, hits, &mut rows);
         turn ^= 1;
     }
 }
@@ -280,7 +275,8 @@ fn direct_lanes(
             // The sample's two numbers, drawn as one at a time draws them (a point needs none).
             samplers[k].next_2d();
         }
-        let batch = LightLanes::new(&light_sampler, hits, &[Vec2::ZERO; BATCH]);
+        let mut batch = LightLanes::EMPTY;
+        batch.fill(&light_sampler, hits, &[Vec2::ZERO; BATCH]);
         let live = live_mask(&batch.live, n);
         counters.shadow += u64::from(live.count_ones());
         let blocked = scene.occluded_lanes(&batch.rays, live);
@@ -380,12 +376,14 @@ fn quad_nee_lanes(
     scene: &Scene,
     light: &LightSampler,
     hits: &[Option<Hit>; LANES],
+    rows: &HitRows,
     wo: &[Vec3; LANES],
     going: u32,
     n: u32,
     paths: &mut [Path; LANES],
     samplers: &mut [Sampler],
     counters: &mut RayCounters,
+    batch: &mut LightLanes,
 ) {
     let nee = nee_lanes(scene, hits, going);
     // The lanes whose material is a Lambert lobe: their samples' values as SIMD loops
@@ -407,7 +405,7 @@ fn quad_nee_lanes(
         for k in lanes_of(nee) {
             xi[k] = samplers[k].next_2d();
         }
-        let batch = LightLanes::new(light, hits, &xi);
+        batch.fill_rows(light, rows, &xi);
         let (lobe_traced, lobe_value) = if lambert != 0 { batch.lambert_values(&lobe, n) } else { ([false; BATCH], [[0.0; BATCH]; 3]) };
         let mut f = [Color::ZERO; LANES];
         let mut traced = 0u32;

@@ -9,7 +9,7 @@
 //! [`Scene::intersect`], so ties between objects go to the same one.
 
 use super::{Scene, MESH_PACKET_FROM};
-use crate::geometry::{Geometry, Hit, ShapeLanes, TriangleLanes};
+use crate::geometry::{Geometry, Hit, HitRows, ShapeLanes, TriangleLanes};
 use crate::math::ray::{lanes_of, RayLanes, LANES};
 
 /// The lanes of `live` whose rays are valid, in both batches. PERF: the lane loops eight
@@ -151,23 +151,26 @@ impl Scene {
     #[must_use]
     pub fn lane_hits(&self, rays: &RayLanes, hits: &LaneHits, count: usize) -> [Option<Hit>; LANES] {
         let mut out = [None; LANES];
-        self.hits_into_nones(rays, hits, count, &mut out);
+        self.hits_into_nones(rays, hits, count, &mut out, None);
         out
     }
 
-    /// [`Scene::lane_hits`] written into `out` (every lane: `None` from `count` on).
+    /// [`Scene::lane_hits`] written into `out` (every lane: `None` from `count` on), and
+    /// the hits' rows into `rows` (those of [`HitRows::of`]`(out)`; in a scene of spheres
+    /// and planes, written from the SIMD loops' own rows).
     /// PERF: the path tracer's loop keeps one array of hits: returned by value, each
     /// bounce's 1.3 kB of hits was copied into it (tp6-matte 0.93 of the time with the
     /// other arrays kept). Its own function: `lane_hits` calling it made tp4-sphere 5%
-    /// slower.
-    pub fn lane_hits_into(&self, rays: &RayLanes, hits: &LaneHits, count: usize, out: &mut [Option<Hit>; LANES]) {
+    /// slower. The rows: gathered from the hits by the path tracer's phases, tp6-matte
+    /// took 1.05 of the time and tp6-glass-quad 1.03.
+    pub fn lane_hit_rows_into(&self, rays: &RayLanes, hits: &LaneHits, count: usize, out: &mut [Option<Hit>; LANES], rows: &mut HitRows) {
         *out = [None; LANES];
-        self.hits_into_nones(rays, hits, count, out);
+        self.hits_into_nones(rays, hits, count, out, Some(rows));
     }
 
     /// The hits of [`Scene::lane_hits`] written into `out`, whose lanes are all `None`.
     #[inline(always)]
-    fn hits_into_nones(&self, rays: &RayLanes, hits: &LaneHits, count: usize, out: &mut [Option<Hit>; LANES]) {
+    fn hits_into_nones(&self, rays: &RayLanes, hits: &LaneHits, count: usize, out: &mut [Option<Hit>; LANES], rows: Option<&mut HitRows>) {
         // A scene of one mesh (the conference room): its hits' face normals and points for
         // all the lanes at once (SIMD), then each hit built around them. PERF: all sixteen
         // lanes cost about what four computed one by one do; in scenes of several objects
@@ -202,6 +205,9 @@ impl Scene {
                 lanes |= 1 << k;
             }
             let g = shapes.hits(rays, &hits.t);
+            if let Some(rows) = rows {
+                g.rows_into(lanes, rows);
+            }
             for k in lanes_of(lanes) {
                 let i = hits.object[k] as usize;
                 let o = &self.objects[i];
@@ -231,13 +237,16 @@ impl Scene {
                     *slot = Some(self.interaction_given(&rays.ray(k), 0, hits.t[k], hits.prim[k], hits.u[k], hits.v[k], Some(g.lane(k))));
                 }
             }
-            return;
-        }
-        for (k, slot) in out.iter_mut().enumerate().take(count) {
-            let i = hits.object[k];
-            if i != NO_OBJECT {
-                *slot = Some(self.interaction_inline(&rays.ray(k), i as usize, hits.t[k], hits.prim[k], hits.u[k], hits.v[k]));
+        } else {
+            for (k, slot) in out.iter_mut().enumerate().take(count) {
+                let i = hits.object[k];
+                if i != NO_OBJECT {
+                    *slot = Some(self.interaction_inline(&rays.ray(k), i as usize, hits.t[k], hits.prim[k], hits.u[k], hits.v[k]));
+                }
             }
+        }
+        if let Some(rows) = rows {
+            *rows = HitRows::of(out);
         }
     }
 }
@@ -371,6 +380,7 @@ impl Scene {
 
 #[cfg(test)]
 mod tests {
+    use crate::geometry::HitRows;
     use crate::math::ray::{RayLanes, RaySegment, LANES};
     use crate::math::sampling::Sampler;
     use crate::{scenes, Accel, Sphere};
@@ -587,9 +597,9 @@ mod tests {
             let scene = desc.build(Accel::BvhSah).unwrap();
             let camera = desc.camera.build(1.5);
             let mut found = 0;
-            // `lane_hits_into`'s array, refilled round after round: a round's hits replace
-            // every lane of the last round's.
-            let mut refilled = [None; LANES];
+            // `lane_hit_rows_into`'s arrays, refilled round after round: a round's hits
+            // and rows replace every lane of the last round's.
+            let (mut refilled, mut rows) = ([None; LANES], HitRows::default());
             for round in 0..300 {
                 let count = 1 + round % LANES;
                 let rays: Vec<RaySegment> = (0..count)
@@ -612,8 +622,10 @@ mod tests {
                 let hits = scene.intersect_lanes(&lanes, count);
                 let all = scene.lane_hits(&lanes, &hits, count);
                 assert!(all[count..].iter().all(Option::is_none), "{}: lanes from {count} on", desc.name);
-                scene.lane_hits_into(&lanes, &hits, count, &mut refilled);
-                assert_eq!(format!("{refilled:?}"), format!("{all:?}"), "{}: lane_hits_into", desc.name);
+                scene.lane_hit_rows_into(&lanes, &hits, count, &mut refilled, &mut rows);
+                assert_eq!(format!("{refilled:?}"), format!("{all:?}"), "{}: lane_hit_rows_into", desc.name);
+                // Bit for bit (`-0.0` and `0.0` print apart).
+                assert_eq!(format!("{rows:?}"), format!("{:?}", HitRows::of(&all)), "{}: the rows", desc.name);
                 for (k, r) in rays.iter().enumerate() {
                     let expected = scene.intersect(&r.ray(), r.t_min, r.t_max);
                     let got = scene.lane_hit(&lanes, &hits, k);
