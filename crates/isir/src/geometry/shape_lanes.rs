@@ -12,7 +12,6 @@
 
 use super::{HitRows, Plane, Sphere};
 use crate::math::ray::{gamma, RayLanes, LANES};
-use glam::Vec3;
 
 /// Sixteen lanes' shapes, as arrays (`[axis][lane]`): a sphere's centre and radius, or a
 /// plane's point and normal.
@@ -25,44 +24,6 @@ pub(crate) struct ShapeLanes {
     radius: [f32; LANES],
     /// The lane holds a sphere.
     sphere: [bool; LANES],
-}
-
-/// Per lane (`[axis][lane]`): the surface point, its error bound and the normal facing the
-/// ray, and whether the ray arrived on the side the normal points to.
-pub(crate) struct ShapeHits {
-    pub(crate) point: [[f32; LANES]; 3],
-    pub(crate) error: [[f32; LANES]; 3],
-    pub(crate) facing: [[f32; LANES]; 3],
-    pub(crate) front: [bool; LANES],
-}
-
-impl ShapeHits {
-    /// The rows of the lanes `mask` ([`HitRows`]: the facing normal is both the
-    /// geometric and the shading one), zeros in the others.
-    /// PERF: the lanes kept with AND masks: as selects, LLVM writes masked stores
-    /// (`vmaskmovps`, slow on AMD).
-    #[inline(always)]
-    #[allow(clippy::needless_range_loop)] // one index into many arrays: the loop vectorises
-    pub(crate) fn rows_into(&self, mask: u32, rows: &mut HitRows) {
-        for k in 0..LANES {
-            let m = 0u32.wrapping_sub((mask >> k) & 1);
-            let keep = |x: f32| f32::from_bits(x.to_bits() & m);
-            for axis in 0..3 {
-                rows.surface.p[axis][k] = keep(self.point[axis][k]);
-                rows.surface.p_error[axis][k] = keep(self.error[axis][k]);
-                rows.surface.ng[axis][k] = keep(self.facing[axis][k]);
-                rows.normal[axis][k] = keep(self.facing[axis][k]);
-            }
-        }
-        rows.mask = mask;
-    }
-
-    /// Lane `k`'s point, error bound and facing normal.
-    #[inline(always)]
-    pub(crate) fn lane(&self, k: usize) -> (Vec3, Vec3, Vec3) {
-        let at = |a: &[[f32; LANES]; 3]| Vec3::new(a[0][k], a[1][k], a[2][k]);
-        (at(&self.point), at(&self.error), at(&self.facing))
-    }
 }
 
 impl ShapeLanes {
@@ -90,18 +51,23 @@ impl ShapeLanes {
     }
 
     /// Each lane's hit of its shape by the ray of `rays` at `t`: what `Scene::intersect`
-    /// builds for a sphere or a plane, bit for bit.
-    pub(crate) fn hits(&self, rays: &RayLanes, t: &[f32; LANES]) -> ShapeHits {
+    /// builds for a sphere or a plane, bit for bit. The lanes of `mask` into `rows` (the
+    /// surface point, its error bound and the normal facing the ray, as both the geometric
+    /// and the shading normal; zeros in the other lanes); returned, whether the ray arrived
+    /// on the side the normal points to.
+    /// PERF: written into the rows the path tracer keeps: as an array of its own, each
+    /// bounce's was zeroed, then copied into the rows.
+    pub(crate) fn hits(&self, rays: &RayLanes, t: &[f32; LANES], mask: u32, rows: &mut HitRows) -> [bool; LANES] {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
             #[target_feature(enable = "avx2")]
-            fn hits_avx2(shapes: &ShapeLanes, rays: &RayLanes, t: &[f32; LANES]) -> ShapeHits {
-                shapes.hits_portable(rays, t)
+            fn hits_avx2(shapes: &ShapeLanes, rays: &RayLanes, t: &[f32; LANES], mask: u32, rows: &mut HitRows) -> [bool; LANES] {
+                shapes.hits_portable(rays, t, mask, rows)
             }
             // SAFETY: the CPU has AVX2, which is all `hits_avx2` is compiled for.
-            return unsafe { hits_avx2(self, rays, t) };
+            return unsafe { hits_avx2(self, rays, t, mask, rows) };
         }
-        self.hits_portable(rays, t)
+        self.hits_portable(rays, t, mask, rows)
     }
 
     /// The operations of `Ray::at`, `Sphere::surface_point`, `Sphere::normal`,
@@ -110,8 +76,8 @@ impl ShapeLanes {
     /// in every lane, each lane's kept by a select.
     #[inline(always)]
     #[allow(clippy::needless_range_loop)] // one index into many arrays: the loops vectorise
-    fn hits_portable(&self, rays: &RayLanes, t: &[f32; LANES]) -> ShapeHits {
-        let mut out = ShapeHits { point: [[0.0; LANES]; 3], error: [[0.0; LANES]; 3], facing: [[0.0; LANES]; 3], front: [false; LANES] };
+    fn hits_portable(&self, rays: &RayLanes, t: &[f32; LANES], mask: u32, rows: &mut HitRows) -> [bool; LANES] {
+        let mut front = [false; LANES];
         let (o, d, c, n, r) = (&rays.o, &rays.d, &self.at, &self.normal, &self.radius);
         let (g1, g5, g8) = (gamma(1), gamma(5), gamma(8));
         // glam's `max_element`: max(x, max(y, z)) with `if a > b { a } else { b }`.
@@ -124,6 +90,9 @@ impl ShapeLanes {
             f32::from_bits((a.to_bits() & m) | (b.to_bits() & !m))
         };
         for j in 0..LANES {
+            // The lanes outside `mask` keep zeros (AND masks, for the same reason).
+            let keep = u32::from(mask & (1 << j) != 0).wrapping_neg();
+            let keep = |x: f32| f32::from_bits(x.to_bits() & keep);
             // `Ray::at`: origin + t · direction.
             let q = [o[0][j] + t[j] * d[0][j], o[1][j] + t[j] * d[1][j], o[2][j] + t[j] * d[2][j]];
             // The point relative to the sphere's centre or the plane's point (`local` in
@@ -144,8 +113,8 @@ impl ShapeLanes {
             for axis in 0..3 {
                 let es = g5 * l[axis].abs() + g1 * ps[axis].abs();
                 let ep = g8 * (pp[axis].abs() + c[axis][j].abs() + m);
-                out.point[axis][j] = sel(s, ps[axis], pp[axis]);
-                out.error[axis][j] = sel(s, es, ep);
+                rows.surface.p[axis][j] = keep(sel(s, ps[axis], pp[axis]));
+                rows.surface.p_error[axis][j] = keep(sel(s, es, ep));
                 nn[axis] = sel(s, (ps[axis] - c[axis][j]) / r[j], n[axis][j]);
             }
             // ---- The normal facing the ray; the side the ray arrived on ----
@@ -153,11 +122,13 @@ impl ShapeLanes {
             // `-n` where the ray and the normal point the same way, as a flip of the sign bit.
             let flip = u32::from(dot > 0.0) << 31;
             for axis in 0..3 {
-                out.facing[axis][j] = f32::from_bits(nn[axis].to_bits() ^ flip);
+                let facing = keep(f32::from_bits(nn[axis].to_bits() ^ flip));
+                (rows.surface.ng[axis][j], rows.normal[axis][j]) = (facing, facing);
             }
-            out.front[j] = dot <= 0.0;
+            front[j] = dot <= 0.0;
         }
-        out
+        rows.mask = mask;
+        front
     }
 }
 
@@ -166,6 +137,7 @@ mod tests {
     use super::*;
     use crate::math::ray::Ray;
     use crate::math::sampling::Sampler;
+    use glam::Vec3;
 
     /// Each lane is the scalar code's hit, bit for bit: `Sphere::surface_point` and
     /// `Sphere::normal`, `Plane::surface_point` and the plane's normal, faced as
@@ -205,17 +177,28 @@ mod tests {
                 let facing = if direction.dot(normal) > 0.0 { -normal } else { normal };
                 expected.push((point, error, facing, direction.dot(normal) <= 0.0));
             }
-            let portable = shapes.hits_portable(&rays, &t);
-            let dispatched = shapes.hits(&rays, &t);
+            // Every lane but one (which must hold zeros).
+            let (mask, out) = (!(1u32 << (round % LANES)) & 0xffff, round % LANES);
+            let (mut portable, mut dispatched) = (HitRows::default(), HitRows::default());
+            let front_portable = shapes.hits_portable(&rays, &t, mask, &mut portable);
+            let front_dispatched = shapes.hits(&rays, &t, mask, &mut dispatched);
+            let at = |a: &[[f32; LANES]; 3], k: usize| Vec3::new(a[0][k], a[1][k], a[2][k]);
             for (k, (point, error, facing, front)) in expected.into_iter().enumerate() {
-                for got in [&portable, &dispatched] {
-                    let (p, e, n) = got.lane(k);
+                for (got, got_front) in [(&portable, front_portable), (&dispatched, front_dispatched)] {
+                    let (p, e, ng, n) = (at(&got.surface.p, k), at(&got.surface.p_error, k), at(&got.surface.ng, k), at(&got.normal, k));
+                    let row = (bits(p), bits(e), bits(ng), bits(n));
+                    if k == out {
+                        assert_eq!(row, ([0; 3], [0; 3], [0; 3], [0; 3]), "round {round}, lane {k} (not in the mask)");
+                        continue;
+                    }
                     assert_eq!(
-                        (bits(p), bits(e), bits(n), got.front[k]),
-                        (bits(point), bits(error), bits(facing), front),
+                        (row, got_front[k]),
+                        ((bits(point), bits(error), bits(facing), bits(facing)), front),
                         "round {round}, lane {k}"
                     );
                 }
+                assert_eq!(portable.mask, mask);
+                assert_eq!(dispatched.mask, mask);
             }
         }
     }

@@ -204,21 +204,24 @@ impl Scene {
                 }
                 lanes |= 1 << k;
             }
-            let g = shapes.hits(rays, &hits.t);
-            if let Some(rows) = rows {
-                g.rows_into(lanes, rows);
-            }
+            let mut own = None;
+            let rows = match rows {
+                Some(rows) => rows,
+                None => own.insert(HitRows::default()),
+            };
+            let front = shapes.hits(rays, &hits.t, lanes, rows);
+            let at = |a: &[[f32; LANES]; 3], k: usize| glam::Vec3::new(a[0][k], a[1][k], a[2][k]);
             for k in lanes_of(lanes) {
                 let i = hits.object[k] as usize;
                 let o = &self.objects[i];
-                let (point, point_error, normal) = g.lane(k);
+                let (point, point_error, normal) = (at(&rows.surface.p, k), at(&rows.surface.p_error, k), at(&rows.normal, k));
                 out[k] = Some(Hit {
                     t: hits.t[k],
                     point,
                     point_error,
                     normal,
                     geometric_normal: normal,
-                    front_face: g.front[k],
+                    front_face: front[k],
                     object: i as u32,
                     prim: hits.prim[k],
                     u: hits.u[k],
