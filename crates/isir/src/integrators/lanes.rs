@@ -107,8 +107,11 @@ fn path_lanes(
     // The hits' points and normals as rows, read by the SIMD phases (the light samples,
     // the BSDF's cosine lobe and the next rays).
     let mut rows = HitRows::of(hits);
-    // The light samples' batch, filled in place at each vertex (`defer`, `quad_nee_lanes`).
+    // The light samples' batch, filled in place at each vertex (`defer`, `quad_nee_lanes`),
+    // and the Lambert lanes' rows of `quad_nee_lanes` (each vertex writes the lanes it
+    // reads). PERF: made afresh per vertex, their 1.9 kB were zeroed (`memset`).
     let mut batch = LightLanes::EMPTY;
+    let mut lobe = LambertLanes { normal: [[0.0; BATCH]; 3], wo: [[0.0; BATCH]; 3], albedo: [[0.0; BATCH]; 3] };
     let mut active: u32 = if n == 0 { 0 } else { u32::MAX >> (32 - n) };
     // A scene lit by one point light: the sixteen paths' samples and shadow rays set up
     // together (`LightLanes`), the rays left for one `occluded_lanes` (`Path::defer_point`).
@@ -175,7 +178,8 @@ fn path_lanes(
                 }
             }
         } else if quad_in_lanes {
-            quad_nee_lanes(scene, &lights[0], hits, &rows, &wo, going, light_samples.max(1), &mut paths, samplers, counters, &mut batch);
+            let scratch = (&mut batch, &mut lobe);
+            quad_nee_lanes(scene, &lights[0], hits, &rows, &wo, going, light_samples.max(1), &mut paths, samplers, counters, scratch);
         } else {
             for k in lanes_of(going) {
                 let Some(hit) = &hits[k] else { unreachable!("an arrived lane has a hit") };
@@ -370,7 +374,8 @@ fn nee_lanes(scene: &Scene, hits: &[Option<Hit>; LANES], going: u32) -> u32 {
 /// sample by sample, every lane's sample and shadow ray set up together
 /// ([`LightLanes`]), the rays traced in one [`Scene::occluded_lanes`], each lane's sum
 /// made as `next_event` makes it (its random numbers drawn in the same order, the same
-/// floats).
+/// floats). The last argument is scratch: the batch and the Lambert lanes' rows, kept by
+/// the caller across its vertices.
 #[allow(clippy::too_many_arguments)]
 fn quad_nee_lanes(
     scene: &Scene,
@@ -383,12 +388,12 @@ fn quad_nee_lanes(
     paths: &mut [Path; LANES],
     samplers: &mut [Sampler],
     counters: &mut RayCounters,
-    batch: &mut LightLanes,
+    (batch, lobe): (&mut LightLanes, &mut LambertLanes),
 ) {
     let nee = nee_lanes(scene, hits, going);
     // The lanes whose material is a Lambert lobe: their samples' values as SIMD loops
-    // (`LightLanes::lambert_values`), the others' lane by lane.
-    let mut lobe = LambertLanes { normal: [[0.0; BATCH]; 3], wo: [[0.0; BATCH]; 3], albedo: [[0.0; BATCH]; 3] };
+    // (`LightLanes::lambert_values`), the others' lane by lane. (`lobe`'s other lanes hold
+    // an earlier vertex's rows: their values are not read.)
     let mut lambert = 0u32;
     for k in lanes_of(nee) {
         let Some(hit) = &hits[k] else { unreachable!("a lane with light has a hit") };
@@ -406,7 +411,7 @@ fn quad_nee_lanes(
             xi[k] = samplers[k].next_2d();
         }
         batch.fill_rows(light, rows, &xi);
-        let (lobe_traced, lobe_value) = if lambert != 0 { batch.lambert_values(&lobe, n) } else { ([false; BATCH], [[0.0; BATCH]; 3]) };
+        let (lobe_traced, lobe_value) = if lambert != 0 { batch.lambert_values(lobe, n) } else { ([false; BATCH], [[0.0; BATCH]; 3]) };
         let mut f = [Color::ZERO; LANES];
         let mut traced = 0u32;
         for k in lanes_of(nee) {
