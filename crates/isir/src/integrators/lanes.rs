@@ -18,6 +18,7 @@ use super::shadow::{live_mask, LambertLanes, LightLanes, QuadBatch, QuadScratch,
 use super::{whitted, Integrator, RayCounters};
 use crate::geometry::{Hit, HitRows};
 use crate::lights::{Light, LightSampler};
+use crate::materials::Material;
 use crate::math::color::Color;
 use crate::math::ray::{lane_mask, lanes_of, spawn_lanes, RayLanes, ShadowRays, LANES};
 use crate::math::sampling::{cosine_hemisphere_lanes, Sampler};
@@ -119,6 +120,7 @@ fn path_lanes(
     let defer = defers_shadow(scene);
     let mut deferred = [DeferredShadow::NONE; LANES];
     let lights = light_samplers(scene);
+    let uniform = MaterialMasks::uniform(scene);
     // A scene lit by one quad light sampled fewer than `BATCH_FROM` times per vertex:
     // each sample of the sixteen paths set up and traced together (`quad_nee_lanes`).
     let surface_lights = scene.lights.iter().any(Light::is_surface);
@@ -152,10 +154,12 @@ fn path_lanes(
             }
         }
         let going = active & !ended;
+        let kinds = MaterialMasks::of(scene, hits, going, uniform);
+        // The lanes taking next-event estimation (`Path::light_direct`: not a delta).
+        let nee = going & !kinds.delta;
         if defer {
             // The point light's samples and shadow rays of every lane at once; each
             // lane's two numbers drawn as `next_event` draws them (a point needs none).
-            let nee = nee_lanes(scene, hits, going);
             for k in lanes_of(nee) {
                 samplers[k].next_2d();
             }
@@ -179,7 +183,8 @@ fn path_lanes(
             }
         } else if quad_in_lanes {
             let scratch = (&mut batch, &mut lobe);
-            quad_nee_lanes(scene, &lights[0], hits, &rows, &wo, going, light_samples.max(1), &mut paths, samplers, counters, scratch);
+            let masks = (nee, kinds.lambert);
+            quad_nee_lanes(scene, &lights[0], hits, &rows, &wo, masks, light_samples.max(1), &mut paths, samplers, counters, scratch);
         } else {
             for k in lanes_of(going) {
                 let Some(hit) = &hits[k] else { unreachable!("an arrived lane has a hit") };
@@ -189,16 +194,14 @@ fn path_lanes(
         // The BSDF samples: the cosine lobe's directions of all the lanes at once, the
         // other materials' lane by lane (each lane's numbers drawn as `sample_bsdf` draws
         // them).
-        let mut lobe = 0u32;
-        for k in lanes_of(going) {
+        let lobe = kinds.lobe;
+        for k in lanes_of(lobe) {
+            let (_u_lobe, u) = (samplers[k].next_f32(), samplers[k].next_2d());
+            xi[k] = u;
+        }
+        for k in lanes_of(going & !lobe) {
             let Some(hit) = &hits[k] else { unreachable!("a gathered lane has a hit") };
-            if scene.material(hit).samples_cosine_lobe() {
-                let (_u_lobe, u) = (samplers[k].next_f32(), samplers[k].next_2d());
-                xi[k] = u;
-                lobe |= 1 << k;
-            } else {
-                bs[k] = Path::sample_bsdf(scene, hit, wo[k], &mut samplers[k]);
-            }
+            bs[k] = Path::sample_bsdf(scene, hit, wo[k], &mut samplers[k]);
         }
         if lobe != 0 {
             let (wi, pdf) = cosine_hemisphere_lanes(&rows.normal, &xi);
@@ -362,11 +365,61 @@ fn quad_groups(
     }
 }
 
-/// The lanes among `going` whose hit takes next-event estimation (a material that is not
-/// a delta), as [`Path::light_direct`] decides it.
-#[inline(always)]
-fn nee_lanes(scene: &Scene, hits: &[Option<Hit>; LANES], going: u32) -> u32 {
-    lanes_of(going).filter(|&k| hits[k].as_ref().is_some_and(|h| !scene.material(h).is_delta())).fold(0u32, |m, k| m | 1 << k)
+/// The kinds of the lanes' materials, as masks of lanes.
+#[derive(Clone, Copy, PartialEq, Eq)]
+struct MaterialMasks {
+    /// Every lobe a delta ([`crate::materials::Material::is_delta`]).
+    delta: u32,
+    /// Sampled from the cosine lobe ([`crate::materials::Material::samples_cosine_lobe`]).
+    lobe: u32,
+    /// A Lambert lobe ([`crate::materials::Material::lambert_albedo`]).
+    lambert: u32,
+}
+
+impl MaterialMasks {
+    /// The kinds of one material, as masks of all the lanes or none.
+    fn one(material: &Material) -> MaterialMasks {
+        let all = |b: bool| if b { u32::MAX } else { 0 };
+        MaterialMasks {
+            delta: all(material.is_delta()),
+            lobe: all(material.samples_cosine_lobe()),
+            lambert: all(material.lambert_albedo().is_some()),
+        }
+    }
+
+    /// The kinds every object's materials share, when they share them (`None` when two
+    /// differ): then every hit's kinds are those.
+    fn uniform(scene: &Scene) -> Option<MaterialMasks> {
+        let mut ids = scene.objects.iter().flat_map(|o| o.materials.iter());
+        let first = MaterialMasks::one(&scene.materials[*ids.next()? as usize]);
+        ids.all(|&id| MaterialMasks::one(&scene.materials[id as usize]) == first).then_some(first)
+    }
+
+    /// The masks of the lanes `lanes`, which have hits, given the scene's `uniform` kinds.
+    /// PERF: found once per vertex, without a branch on each lane's material: the phases'
+    /// loops each branched on it, which mispredicted where glass and matte lanes mix
+    /// (tp6-glass-quad's path tracer 0.96 of the time). Read from the scene once when its
+    /// materials are all of one kind (tp6-matte's path tracer 1.02 of the time lane by
+    /// lane).
+    #[inline(always)]
+    fn of(scene: &Scene, hits: &[Option<Hit>; LANES], lanes: u32, uniform: Option<MaterialMasks>) -> MaterialMasks {
+        if let Some(u) = uniform {
+            return MaterialMasks { delta: u.delta & lanes, lobe: u.lobe & lanes, lambert: u.lambert & lanes };
+        }
+        let mut m = MaterialMasks { delta: 0, lobe: 0, lambert: 0 };
+        if lanes == 0 {
+            // (Then the scene may have no material to read.)
+            return m;
+        }
+        for (k, hit) in hits.iter().enumerate() {
+            // A lane without a hit reads one of zeros (its bit is not in `lanes`).
+            let material = scene.material(hit.as_ref().unwrap_or(&Hit::ZERO));
+            m.delta |= u32::from(material.is_delta()) << k;
+            m.lobe |= u32::from(material.samples_cosine_lobe()) << k;
+            m.lambert |= u32::from(material.lambert_albedo().is_some()) << k;
+        }
+        MaterialMasks { delta: m.delta & lanes, lobe: m.lobe & lanes, lambert: m.lambert & lanes }
+    }
 }
 
 /// Next-event estimation of the paths `going` ([`Path::light_direct`]) in a scene lit by
@@ -383,25 +436,22 @@ fn quad_nee_lanes(
     hits: &[Option<Hit>; LANES],
     rows: &HitRows,
     wo: &[Vec3; LANES],
-    going: u32,
+    (nee, lambert): (u32, u32),
     n: u32,
     paths: &mut [Path; LANES],
     samplers: &mut [Sampler],
     counters: &mut RayCounters,
     (batch, lobe): (&mut LightLanes, &mut LambertLanes),
 ) {
-    let nee = nee_lanes(scene, hits, going);
-    // The lanes whose material is a Lambert lobe: their samples' values as SIMD loops
-    // (`LightLanes::lambert_values`), the others' lane by lane. (`lobe`'s other lanes hold
-    // an earlier vertex's rows: their values are not read.)
-    let mut lambert = 0u32;
-    for k in lanes_of(nee) {
+    // The lanes whose material is a Lambert lobe (`lambert`): their samples' values as SIMD
+    // loops (`LightLanes::lambert_values`), the others' lane by lane. (`lobe`'s other lanes
+    // hold an earlier vertex's rows: their values are not read.)
+    let lambert = lambert & nee;
+    for k in lanes_of(lambert) {
         let Some(hit) = &hits[k] else { unreachable!("a lane with light has a hit") };
-        if let Some(c) = scene.material(hit).lambert_albedo() {
-            for axis in 0..3 {
-                (lobe.normal[axis][k], lobe.wo[axis][k], lobe.albedo[axis][k]) = (hit.normal[axis], wo[k][axis], c[axis]);
-            }
-            lambert |= 1 << k;
+        let Some(c) = scene.material(hit).lambert_albedo() else { unreachable!("a Lambert lane") };
+        for axis in 0..3 {
+            (lobe.normal[axis][k], lobe.wo[axis][k], lobe.albedo[axis][k]) = (hit.normal[axis], wo[k][axis], c[axis]);
         }
     }
     let mut acc = [Color::ZERO; LANES];
@@ -413,12 +463,8 @@ fn quad_nee_lanes(
         batch.fill_rows(light, rows, &xi);
         let (lobe_traced, lobe_value) = if lambert != 0 { batch.lambert_values(lobe, n) } else { ([false; BATCH], [[0.0; BATCH]; 3]) };
         let mut f = [Color::ZERO; LANES];
-        let mut traced = 0u32;
-        for k in lanes_of(nee) {
-            if lambert & (1 << k) != 0 {
-                traced |= u32::from(lobe_traced[k]) << k;
-                continue;
-            }
+        let mut traced = lane_mask(&lobe_traced) & lambert;
+        for k in lanes_of(nee & !lambert) {
             let Some(hit) = &hits[k] else { unreachable!("a lane with light has a hit") };
             if let Some(fk) = Path::light_sample_f(scene, hit, wo[k], &batch.sample(k)).filter(|_| batch.has_ray[k]) {
                 f[k] = fk;
@@ -427,11 +473,10 @@ fn quad_nee_lanes(
         }
         counters.shadow += u64::from(traced.count_ones());
         let blocked = if traced == 0 { 0 } else { scene.occluded_lanes(&batch.rays, traced) };
-        for k in lanes_of(traced & !blocked) {
-            if lambert & (1 << k) != 0 {
-                acc[k] += Vec3::new(lobe_value[0][k], lobe_value[1][k], lobe_value[2][k]);
-                continue;
-            }
+        for k in lanes_of(traced & !blocked & lambert) {
+            acc[k] += Vec3::new(lobe_value[0][k], lobe_value[1][k], lobe_value[2][k]);
+        }
+        for k in lanes_of(traced & !blocked & !lambert) {
             let Some(hit) = &hits[k] else { unreachable!("a traced lane has a hit") };
             acc[k] += Path::quad_sample_value(scene, hit, wo[k], &batch.sample(k), f[k], n);
         }
