@@ -109,10 +109,10 @@ fn path_lanes(
     // the BSDF's cosine lobe and the next rays).
     let mut rows = HitRows::of(hits);
     // The light samples' batch, filled in place at each vertex (`defer`, `quad_nee_lanes`),
-    // and the Lambert lanes' rows of `quad_nee_lanes` (each vertex writes the lanes it
-    // reads). PERF: made afresh per vertex, their 1.9 kB were zeroed (`memset`).
+    // and the Lambert lanes' albedos of `quad_nee_lanes` (each vertex writes the lanes it
+    // reads). PERF: made afresh per vertex, their 1.5 kB were zeroed (`memset`).
     let mut batch = LightLanes::EMPTY;
-    let mut lobe = LambertLanes { normal: [[0.0; BATCH]; 3], wo: [[0.0; BATCH]; 3], albedo: [[0.0; BATCH]; 3] };
+    let mut albedo = [[0f32; BATCH]; 3];
     let mut active: u32 = if n == 0 { 0 } else { u32::MAX >> (32 - n) };
     // A scene lit by one point light: the sixteen paths' samples and shadow rays set up
     // together (`LightLanes`), the rays left for one `occluded_lanes` (`Path::defer_point`).
@@ -182,9 +182,10 @@ fn path_lanes(
                 }
             }
         } else if quad_in_lanes {
-            let scratch = (&mut batch, &mut lobe);
+            let scratch = (&mut batch, &mut albedo);
+            let wo = (&wo, &back);
             let masks = (nee, kinds.lambert);
-            quad_nee_lanes(scene, &lights[0], hits, &rows, &wo, masks, light_samples.max(1), &mut paths, samplers, counters, scratch);
+            quad_nee_lanes(scene, &lights[0], hits, &rows, wo, masks, light_samples.max(1), &mut paths, samplers, counters, scratch);
         } else {
             for k in lanes_of(going) {
                 let Some(hit) = &hits[k] else { unreachable!("an arrived lane has a hit") };
@@ -427,7 +428,7 @@ impl MaterialMasks {
 /// sample by sample, every lane's sample and shadow ray set up together
 /// ([`LightLanes`]), the rays traced in one [`Scene::occluded_lanes`], each lane's sum
 /// made as `next_event` makes it (its random numbers drawn in the same order, the same
-/// floats). The last argument is scratch: the batch and the Lambert lanes' rows, kept by
+/// floats). The last argument is scratch: the batch and the Lambert lanes' albedos, kept by
 /// the caller across its vertices.
 #[allow(clippy::too_many_arguments)]
 fn quad_nee_lanes(
@@ -435,25 +436,27 @@ fn quad_nee_lanes(
     light: &LightSampler,
     hits: &[Option<Hit>; LANES],
     rows: &HitRows,
-    wo: &[Vec3; LANES],
+    (wo, back): (&[Vec3; LANES], &[[f32; LANES]; 3]),
     (nee, lambert): (u32, u32),
     n: u32,
     paths: &mut [Path; LANES],
     samplers: &mut [Sampler],
     counters: &mut RayCounters,
-    (batch, lobe): (&mut LightLanes, &mut LambertLanes),
+    (batch, albedo): (&mut LightLanes, &mut [[f32; BATCH]; 3]),
 ) {
     // The lanes whose material is a Lambert lobe (`lambert`): their samples' values as SIMD
-    // loops (`LightLanes::lambert_values`), the others' lane by lane. (`lobe`'s other lanes
-    // hold an earlier vertex's rows: their values are not read.)
+    // loops (`LightLanes::lambert_values`, reading the hits' normals and the directions
+    // back in rows: `wo[k]` is lane `k` of `back`), the others' lane by lane. (`albedo`'s
+    // other lanes hold an earlier vertex's: their values are not read.)
     let lambert = lambert & nee;
     for k in lanes_of(lambert) {
         let Some(hit) = &hits[k] else { unreachable!("a lane with light has a hit") };
         let Some(c) = scene.material(hit).lambert_albedo() else { unreachable!("a Lambert lane") };
-        for axis in 0..3 {
-            (lobe.normal[axis][k], lobe.wo[axis][k], lobe.albedo[axis][k]) = (hit.normal[axis], wo[k][axis], c[axis]);
+        for (axis, row) in albedo.iter_mut().enumerate() {
+            row[k] = c[axis];
         }
     }
+    let lobe = LambertLanes { normal: &rows.normal, wo: back, albedo };
     let mut acc = [Color::ZERO; LANES];
     for _ in 0..n {
         let mut xi = [Vec2::ZERO; BATCH];
@@ -461,7 +464,7 @@ fn quad_nee_lanes(
             xi[k] = samplers[k].next_2d();
         }
         batch.fill_rows(light, rows, &xi);
-        let (lobe_traced, lobe_value) = if lambert != 0 { batch.lambert_values(lobe, n) } else { ([false; BATCH], [[0.0; BATCH]; 3]) };
+        let (lobe_traced, lobe_value) = if lambert != 0 { batch.lambert_values(&lobe, n) } else { ([false; BATCH], [[0.0; BATCH]; 3]) };
         let mut f = [Color::ZERO; LANES];
         let mut traced = lane_mask(&lobe_traced) & lambert;
         for k in lanes_of(nee & !lambert) {

@@ -264,10 +264,10 @@ fn lane_sample(
 
 /// Hits with a Lambert lobe, in lanes, for [`LightLanes::lambert_values`]: shading
 /// normals, `wo` and albedos (`[axis][lane]`).
-pub(super) struct LambertLanes {
-    pub(super) normal: [[f32; BATCH]; 3],
-    pub(super) wo: [[f32; BATCH]; 3],
-    pub(super) albedo: [[f32; BATCH]; 3],
+pub(super) struct LambertLanes<'a> {
+    pub(super) normal: &'a [[f32; BATCH]; 3],
+    pub(super) wo: &'a [[f32; BATCH]; 3],
+    pub(super) albedo: &'a [[f32; BATCH]; 3],
 }
 
 /// The lanes among the first `count` whose flag in `live` is set, as a mask (a batch's
@@ -519,11 +519,11 @@ impl LightLanes {
     /// their order, so the same floats, as SIMD loops (AVX2 where the CPU has it).
     /// PERF: lane by lane, each lane's chain of dot products, comparisons and the
     /// heuristic's division ran one after another.
-    pub(super) fn lambert_values(&self, lobe: &LambertLanes, n: u32) -> ([bool; BATCH], [[f32; BATCH]; 3]) {
+    pub(super) fn lambert_values(&self, lobe: &LambertLanes<'_>, n: u32) -> ([bool; BATCH], [[f32; BATCH]; 3]) {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
             #[target_feature(enable = "avx2")]
-            fn avx2(b: &LightLanes, lobe: &LambertLanes, n: u32) -> ([bool; BATCH], [[f32; BATCH]; 3]) {
+            fn avx2(b: &LightLanes, lobe: &LambertLanes<'_>, n: u32) -> ([bool; BATCH], [[f32; BATCH]; 3]) {
                 b.lambert_values_portable(lobe, n)
             }
             // SAFETY: the CPU has AVX2, which is all `avx2` is compiled for.
@@ -534,8 +534,8 @@ impl LightLanes {
 
     #[inline(always)]
     #[allow(clippy::needless_range_loop)] // one index into many arrays: the loops vectorise
-    fn lambert_values_portable(&self, lobe: &LambertLanes, n: u32) -> ([bool; BATCH], [[f32; BATCH]; 3]) {
-        let (nm, wo, c) = (&lobe.normal, &lobe.wo, &lobe.albedo);
+    fn lambert_values_portable(&self, lobe: &LambertLanes<'_>, n: u32) -> ([bool; BATCH], [[f32; BATCH]; 3]) {
+        let (nm, wo, c) = (lobe.normal, lobe.wo, lobe.albedo);
         let (wi, rad) = (&self.wi, &self.radiance);
         let mut traced = [false; BATCH];
         let mut value = [[0f32; BATCH]; 3];
