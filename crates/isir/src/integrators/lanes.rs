@@ -109,8 +109,7 @@ fn path_lanes(
     // the BSDF's cosine lobe and the next rays).
     let mut rows = HitRows::of(hits);
     // The light samples' batch, filled in place at each vertex (`defer`, `quad_nee_lanes`),
-    // and the Lambert lanes' albedos of `quad_nee_lanes` (each vertex writes the lanes it
-    // reads). PERF: made afresh per vertex, their 1.5 kB were zeroed (`memset`).
+    // and the Lambert lanes' albedos (each vertex writes the lanes it reads). PERF: made afresh per vertex, their 1.5 kB were zeroed (`memset`).
     let mut batch = LightLanes::EMPTY;
     let mut albedo = [[0f32; BATCH]; 3];
     let mut active: u32 = if n == 0 { 0 } else { u32::MAX >> (32 - n) };
@@ -164,9 +163,27 @@ fn path_lanes(
                 samplers[k].next_2d();
             }
             batch.fill_rows(&lights[0], &rows, &[Vec2::ZERO; BATCH]);
-            // The lanes whose shadow rays the deferred samples trace.
+            // The lanes whose shadow rays the deferred samples trace. Lambert lanes decide
+            // and value theirs in SIMD loops (`LightLanes::lambert_point_values`: the
+            // operations of `defer_point`, the same floats), the others lane by lane.
+            // PERF: lane by lane, each lane's sample, BRDF and value were one chain of
+            // dependent operations.
+            let lambert = nee & kinds.lambert;
             let mut traced = 0u32;
-            for k in lanes_of(nee) {
+            if lambert != 0 {
+                gather_albedos(scene, hits, lambert, &mut albedo);
+                let lobe = LambertLanes { normal: &rows.normal, wo: &back, albedo: &albedo };
+                let (lobe_traced, value) = batch.lambert_point_values(&lobe);
+                traced = lane_mask(&lobe_traced) & lambert;
+                for k in lanes_of(lambert & !traced) {
+                    paths[k].add_unlit();
+                }
+                for k in lanes_of(traced) {
+                    deferred[k] = paths[k].deferred(Vec3::new(value[0][k], value[1][k], value[2][k]));
+                }
+                counters.shadow += u64::from(traced.count_ones());
+            }
+            for k in lanes_of(nee & !lambert) {
                 let Some(hit) = &hits[k] else { unreachable!("an arrived lane has a hit") };
                 if let Some(d) = paths[k].defer_point(scene, hit, wo[k], &batch.sample(k), batch.has_ray[k], counters) {
                     deferred[k] = d;
@@ -423,6 +440,18 @@ impl MaterialMasks {
     }
 }
 
+/// The albedos of the Lambert lanes `lambert` into their lanes of `albedo`.
+#[inline(always)]
+fn gather_albedos(scene: &Scene, hits: &[Option<Hit>; LANES], lambert: u32, albedo: &mut [[f32; BATCH]; 3]) {
+    for k in lanes_of(lambert) {
+        let Some(hit) = &hits[k] else { unreachable!("a Lambert lane has a hit") };
+        let Some(c) = scene.material(hit).lambert_albedo() else { unreachable!("a Lambert lane") };
+        for (axis, row) in albedo.iter_mut().enumerate() {
+            row[k] = c[axis];
+        }
+    }
+}
+
 /// Next-event estimation of the paths `going` ([`Path::light_direct`]) in a scene lit by
 /// the one quad light `light`, sampled `n` times per vertex (fewer than [`BATCH_FROM`]):
 /// sample by sample, every lane's sample and shadow ray set up together
@@ -449,13 +478,7 @@ fn quad_nee_lanes(
     // back in rows: `wo[k]` is lane `k` of `back`), the others' lane by lane. (`albedo`'s
     // other lanes hold an earlier vertex's: their values are not read.)
     let lambert = lambert & nee;
-    for k in lanes_of(lambert) {
-        let Some(hit) = &hits[k] else { unreachable!("a lane with light has a hit") };
-        let Some(c) = scene.material(hit).lambert_albedo() else { unreachable!("a Lambert lane") };
-        for (axis, row) in albedo.iter_mut().enumerate() {
-            row[k] = c[axis];
-        }
-    }
+    gather_albedos(scene, hits, lambert, albedo);
     let lobe = LambertLanes { normal: &rows.normal, wo: back, albedo };
     let mut acc = [Color::ZERO; LANES];
     for _ in 0..n {

@@ -270,11 +270,23 @@ impl Path {
         debug_assert!(!material.is_delta() && defers_shadow(scene));
         if let Some(f) = traced_f(material, hit, wo, ls).filter(|_| has_ray) {
             counters.shadow += 1;
-            return Some(DeferredShadow { value: unoccluded(ls, f, hit, 1.0), beta: self.beta });
+            return Some(self.deferred(unoccluded(ls, f, hit, 1.0)));
         }
-        // `next_event`'s sum without a deferred ray: zero (no sample reached the light).
-        self.l += self.beta * Color::ZERO;
+        self.add_unlit();
         None
+    }
+
+    /// [`Path::defer_point`]'s deferred sample, given what it brings unoccluded.
+    #[inline(always)]
+    pub(super) fn deferred(&self, value: Color) -> DeferredShadow {
+        DeferredShadow { value, beta: self.beta }
+    }
+
+    /// [`Path::defer_point`] without a shadow ray: `next_event`'s sum is zero (no sample
+    /// reached the light), added as it adds it.
+    #[inline(always)]
+    pub(super) fn add_unlit(&mut self) {
+        self.l += self.beta * Color::ZERO;
     }
 
     /// The BRDF value at `hit` of the light sample `ls` when it is worth a shadow ray, as

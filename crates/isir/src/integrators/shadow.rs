@@ -524,17 +524,33 @@ impl LightLanes {
         if std::arch::is_x86_feature_detected!("avx2") {
             #[target_feature(enable = "avx2")]
             fn avx2(b: &LightLanes, lobe: &LambertLanes<'_>, n: u32) -> ([bool; BATCH], [[f32; BATCH]; 3]) {
-                b.lambert_values_portable(lobe, n)
+                b.lambert_values_portable::<true>(lobe, n)
             }
             // SAFETY: the CPU has AVX2, which is all `avx2` is compiled for.
             return unsafe { avx2(self, lobe, n) };
         }
-        self.lambert_values_portable(lobe, n)
+        self.lambert_values_portable::<true>(lobe, n)
+    }
+
+    /// [`Self::lambert_values`] for a point light's samples (one per vertex, no MIS
+    /// weight: `next_event`'s weight 1): what [`super::path::Path::defer_point`] decides
+    /// and defers, in SIMD loops.
+    pub(super) fn lambert_point_values(&self, lobe: &LambertLanes<'_>) -> ([bool; BATCH], [[f32; BATCH]; 3]) {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            #[target_feature(enable = "avx2")]
+            fn avx2(b: &LightLanes, lobe: &LambertLanes<'_>) -> ([bool; BATCH], [[f32; BATCH]; 3]) {
+                b.lambert_values_portable::<false>(lobe, 1)
+            }
+            // SAFETY: the CPU has AVX2, which is all `avx2` is compiled for.
+            return unsafe { avx2(self, lobe) };
+        }
+        self.lambert_values_portable::<false>(lobe, 1)
     }
 
     #[inline(always)]
     #[allow(clippy::needless_range_loop)] // one index into many arrays: the loops vectorise
-    fn lambert_values_portable(&self, lobe: &LambertLanes<'_>, n: u32) -> ([bool; BATCH], [[f32; BATCH]; 3]) {
+    fn lambert_values_portable<const WEIGHTED: bool>(&self, lobe: &LambertLanes<'_>, n: u32) -> ([bool; BATCH], [[f32; BATCH]; 3]) {
         let (nm, wo, c) = (lobe.normal, lobe.wo, lobe.albedo);
         let (wi, rad) = (&self.wi, &self.radiance);
         let mut traced = [false; BATCH];
@@ -564,7 +580,7 @@ impl LightLanes {
             // `power_heuristic(n, pdf, 1, m_pdf)`.
             let (a, b) = (nf * pdf, 1.0 * m_pdf);
             let (a2, b2) = (a * a, b * b);
-            let w = if a.is_infinite() {
+            let w = if !WEIGHTED || a.is_infinite() {
                 1.0
             } else if a2 + b2 > 0.0 {
                 a2 / (a2 + b2)
