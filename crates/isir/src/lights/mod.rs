@@ -7,7 +7,7 @@
 //! `radiance = colour·power / pdf` estimates (`∫ L_e f cos dω ≈ L_e f cos / pdf`).
 
 use crate::math::color::Color;
-use crate::math::ray::{Ray, RayLanes, LANES};
+use crate::math::ray::{lane_mask, Ray, RayLanes, LANES};
 use glam::{Vec2, Vec3};
 
 /// Where a ray meets an emitting surface (a quad light), seen from the ray's origin.
@@ -286,14 +286,9 @@ impl LightSampler {
             out.t[k] = t;
             out.pdf[k] = dd * dd / (area * cos);
         }
-        for k in 0..LANES {
-            if mask & (1 << k) != 0 && met[k] {
-                out.met |= 1 << k;
-                if back[k] {
-                    out.back |= 1 << k;
-                }
-            }
-        }
+        // PERF: as masks, not a branch per lane (the path tracer's bounces, every vertex).
+        out.met = lane_mask(&met) & mask;
+        out.back = lane_mask(&back) & out.met;
         out
     }
 }
