@@ -37,7 +37,13 @@ impl Integrator {
         assert!(n <= LANES && out.len() >= n);
         counters.primary += n as u64;
         let closest = scene.intersect_lanes(rays, n);
-        let mut hits = scene.lane_hits(rays, &closest, n);
+        if let Integrator::Path { light_samples, max_depth } = *self {
+            // The hits and their rows written where the bounces keep them.
+            let (mut hits, mut rows) = ([None; LANES], HitRows::default());
+            scene.lane_hit_rows_into(rays, &closest, n, &mut hits, &mut rows);
+            return path_lanes(scene, rays, &mut hits, &mut rows, light_samples, max_depth, samplers, counters, out);
+        }
+        let hits = scene.lane_hits(rays, &closest, n);
         match *self {
             Integrator::DirectLighting { light_samples } => direct_lanes(scene, rays, &hits, light_samples, samplers, counters, out),
             Integrator::Whitted { light_samples, max_depth } => {
@@ -53,9 +59,7 @@ impl Integrator {
                     whitted::li_at_hits(scene, rays, &hits, specular, light_samples, max_depth, samplers, counters, out);
                 }
             }
-            Integrator::Path { light_samples, max_depth } => {
-                path_lanes(scene, rays, &mut hits, light_samples, max_depth, samplers, counters, out)
-            }
+            Integrator::Path { .. } => unreachable!("the path tracer returned above"),
             Integrator::RayCast => {
                 for k in 0..n {
                     let ray = rays.ray(k);
@@ -73,7 +77,9 @@ impl Integrator {
 /// [`Path::step`] (the lane's own sampler, the same operations as one path at a time),
 /// run phase by phase over the lanes, and every bounce's next hits come from one
 /// [`Scene::intersect_lanes`] over the paths still going (the others are zero rays,
-/// which meet nothing). `hits` holds the camera rays' hits, then each bounce's.
+/// which meet nothing). `hits` holds the camera rays' hits, then each bounce's, and
+/// `rows` their points and normals as rows ([`HitRows`]), read by the SIMD phases (the
+/// light samples, the BSDF's cosine lobe and the next rays).
 /// PERF: one path at a time, a vertex is one long chain of dependent operations (square
 /// roots, divisions, a sine and cosine); phase by phase the CPU overlaps the lanes'
 /// chains, and the arithmetic phases are SIMD loops over the lanes (`LightLanes`,
@@ -87,6 +93,7 @@ fn path_lanes(
     scene: &Scene,
     rays: &RayLanes,
     hits: &mut [Option<Hit>; LANES],
+    rows: &mut HitRows,
     light_samples: u32,
     max_depth: u32,
     samplers: &mut [Sampler],
@@ -105,9 +112,6 @@ fn path_lanes(
     let mut wo = [Vec3::ZERO; LANES];
     let mut bs = [None; LANES];
     let (mut xi, mut wi) = ([Vec2::ZERO; LANES], [[0f32; LANES]; 3]);
-    // The hits' points and normals as rows, read by the SIMD phases (the light samples,
-    // the BSDF's cosine lobe and the next rays).
-    let mut rows = HitRows::of(hits);
     // The light samples' batch, filled in place at each vertex (`defer`, `quad_nee_lanes`),
     // and the Lambert lanes' albedos (each vertex writes the lanes it reads). PERF: made afresh per vertex, their 1.5 kB were zeroed (`memset`).
     let mut batch = LightLanes::EMPTY;
@@ -162,7 +166,7 @@ fn path_lanes(
             for k in lanes_of(nee) {
                 samplers[k].next_2d();
             }
-            batch.fill_rows(&lights[0], &rows, &[Vec2::ZERO; BATCH]);
+            batch.fill_rows(&lights[0], rows, &[Vec2::ZERO; BATCH]);
             // The lanes whose shadow rays the deferred samples trace. Lambert lanes decide
             // and value theirs in SIMD loops (`LightLanes::lambert_point_values`: the
             // operations of `defer_point`, the same floats), the others lane by lane.
@@ -202,7 +206,7 @@ fn path_lanes(
             let scratch = (&mut batch, &mut albedo);
             let wo = (&wo, &back);
             let masks = (nee, kinds.lambert);
-            quad_nee_lanes(scene, &lights[0], hits, &rows, wo, masks, light_samples.max(1), &mut paths, samplers, counters, scratch);
+            quad_nee_lanes(scene, &lights[0], hits, rows, wo, masks, light_samples.max(1), &mut paths, samplers, counters, scratch);
         } else {
             for k in lanes_of(going) {
                 let Some(hit) = &hits[k] else { unreachable!("an arrived lane has a hit") };
@@ -250,7 +254,7 @@ fn path_lanes(
             break;
         }
         let closest = scene.intersect_lanes(next, LANES);
-        scene.lane_hit_rows_into(next, &closest, LANES, hits, &mut rows);
+        scene.lane_hit_rows_into(next, &closest, LANES, hits, rows);
         turn ^= 1;
     }
 }
