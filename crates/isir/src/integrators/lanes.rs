@@ -113,7 +113,8 @@ fn path_lanes(
     let mut bs = [None; LANES];
     let (mut xi, mut wi) = ([Vec2::ZERO; LANES], [[0f32; LANES]; 3]);
     // The light samples' batch, filled in place at each vertex (`defer`, `quad_nee_lanes`),
-    // and the Lambert lanes' albedos (each vertex writes the lanes it reads). PERF: made afresh per vertex, their 1.5 kB were zeroed (`memset`).
+    // and the Lambert lanes' albedos (each vertex writes the lanes it reads). PERF: made
+    // afresh per vertex, their 1.5 kB were zeroed (`memset`).
     let mut batch = LightLanes::EMPTY;
     let mut albedo = [[0f32; BATCH]; 3];
     let mut active: u32 = if n == 0 { 0 } else { u32::MAX >> (32 - n) };
