@@ -87,7 +87,7 @@ pub(super) fn one_light(
 }
 
 /// A quad light's average over its `n` samples: sixteen samples at a time, set up together
-/// ([`QuadBatch`]), then traced and summed in order (the same sum as one sample at a time);
+/// ([`super::shadow::QuadBatch`]), then traced and summed in order (the same sum as one sample at a time);
 /// fewer than [`BATCH_FROM`] samples one at a time ([`one_light`]).
 /// PERF: out of line, so that point lights keep a small `direct_lighting` (inlined, it made
 /// point-light scenes 20% slower). `scratch` is the batch's memory, reused from call to

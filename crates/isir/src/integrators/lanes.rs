@@ -260,7 +260,7 @@ fn path_lanes(
     }
 }
 
-/// [`direct_lighting`] for every lane with a hit, light by light: a point light's shadow
+/// [`super::direct::direct_lighting`] for every lane with a hit, light by light: a point light's shadow
 /// rays from all the lanes in one [`Scene::occluded_lanes`]; a quad light's lane by lane
 /// (each lane's samples are already traced together).
 fn direct_lanes(

@@ -197,7 +197,7 @@ impl QuadBatch {
         out
     }
 
-    /// [`Self::shade`] into `out` (every lane written).
+    /// `Self::shade` (the tests' form) into `out` (every lane written).
     pub(super) fn shade_into(&self, material: &Material, ray: &Ray, hit: &Hit, out: &mut [[f32; BATCH]; 3]) {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {

@@ -270,9 +270,9 @@ pub(super) fn bin_prims<const NB: usize>(prims: &[PrimRef], binner: &Binner) -> 
 }
 
 /// The best binned split: `(axis, first bin of the right side, cost)`: the first
-/// minimum in the order axis by axis, plane by plane (the answer of
-/// [`best_split_scalar`], bit for bit). The three axes are swept together, one per SIMD
-/// lane, as Embree's binner does.
+/// minimum in the order axis by axis, plane by plane (the answer of the tests'
+/// reference, `best_split_scalar`, bit for bit). The three axes are swept together, one
+/// per SIMD lane, as Embree's binner does.
 /// PERF: one sweep for the three axes, without a branch per plane (10M-triangle mesh:
 /// the build 2% faster).
 pub(super) fn best_split<const NB: usize>(bins: &Bins<NB>) -> Option<(usize, usize, f32)> {
@@ -595,7 +595,7 @@ impl Part {
 /// Parallel SAH build: subtrees larger than [`PARALLEL_THRESHOLD`] are split on both
 /// cores; smaller ones are built sequentially, each into its own array.
 /// PERF: copying every finished subtree into its parent's array at each parallel level
-/// was 5% of the build; [`Part::flatten`] copies each node once.
+/// was 5% of the build; [`Part::write_rest`] writes each node once.
 pub(super) fn build_sah_parallel(prims: &mut [PrimRef], b: &Bounds, first: u32, depth: u32) -> Part {
     if prims.len() <= PARALLEL_THRESHOLD {
         // At most 2n - 1 nodes: reserved so the array never grows (and copies).
