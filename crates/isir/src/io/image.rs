@@ -156,19 +156,21 @@ impl Image {
         }
         crate::io::output::write_atomically(path, |w| match format {
             Format::Exr => {
-                use exr::prelude::{SpecificChannels, Vec2, WritableImage};
+                use exr::prelude::{Encoding, LineOrder, SpecificChannels, Vec2, WritableImage};
                 let width = self.width as usize;
                 let channels = SpecificChannels::rgb(|Vec2(x, y): Vec2<usize>| {
                     let c: Color = self.pixels[y * width + x];
                     (c.x, c.y, c.z)
                 });
-                // The same image as `exr::prelude::write_rgb_file` writes, into our file.
-                exr::prelude::Image::from_channels((width, self.height as usize), channels).write().to_buffered(&mut *w).map_err(
-                    |e| match e {
-                        exr::error::Error::Io(e) => e,
-                        e => crate::io::output::other(e),
-                    },
-                )
+                // The image `exr::prelude::write_rgb_file` writes (RLE, 64x64 tiles), into our
+                // file, its tiles in increasing order: the same image, the same bytes (they
+                // are compressed on several threads, and were written as they finished).
+                let encoding = Encoding { line_order: LineOrder::Increasing, ..Encoding::FAST_LOSSLESS };
+                let image = exr::prelude::Image::from_encoded_channels((width, self.height as usize), encoding, channels);
+                image.write().to_buffered(&mut *w).map_err(|e| match e {
+                    exr::error::Error::Io(e) => e,
+                    e => crate::io::output::other(e),
+                })
             }
             Format::Png => {
                 use image::ImageEncoder;
@@ -224,6 +226,29 @@ mod tests {
         .unwrap();
         assert_eq!(exr.layer_data.channel_data.pixels[1][2], (1.0, 0.5, 0.25));
         assert!(img.save(dir.join("a.bmp"), Display::Srgb).is_err());
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn an_exr_is_the_same_bytes_each_time() {
+        // Its tiles are compressed on several threads: written as they finished, the file's
+        // bytes changed from one save to the next (the pixels did not).
+        let dir = std::env::temp_dir().join(format!("isir-image-exr-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let mut img = Image::new(600, 400);
+        let mut state = 1u32;
+        for c in &mut img.pixels {
+            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            *c = Color::splat((state >> 8) as f32 / (1 << 24) as f32);
+        }
+        let first = dir.join("first.exr");
+        img.save(&first, Display::LinearClamp).unwrap();
+        let first = std::fs::read(first).unwrap();
+        for k in 0..8 {
+            let p = dir.join(format!("again{k}.exr"));
+            img.save(&p, Display::LinearClamp).unwrap();
+            assert!(std::fs::read(&p).unwrap() == first, "save {k} wrote other bytes");
+        }
         std::fs::remove_dir_all(&dir).ok();
     }
 
