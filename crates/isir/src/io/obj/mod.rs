@@ -26,6 +26,7 @@
 //! - Errors name the file and, where it can be found, the line; a quoted line or element
 //!   is cut to 80 characters.
 
+mod fast;
 mod format;
 mod scan;
 #[cfg(test)]
@@ -172,6 +173,28 @@ pub(crate) fn parse_obj_inner(
     mtl_loader: impl Fn(&Path) -> Result<Vec<u8>>,
     report_degenerate: bool,
 ) -> Result<LoadedMesh> {
+    parse_obj_by(path, bytes, mtl_loader, report_degenerate, Reader::Parallel(None))
+}
+
+/// Who reads an OBJ's geometry.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Reader {
+    /// The parallel reader of `fast.rs` where the file is plain, tobj otherwise; in about
+    /// so many chunks (`None`: by the file's size and the threads).
+    Parallel(Option<usize>),
+    /// tobj alone (the tests' reference).
+    #[cfg_attr(not(test), allow(dead_code))]
+    Tobj,
+}
+
+/// [`parse_obj_inner`] with the geometry read by `reader`.
+fn parse_obj_by(
+    path: &Path,
+    bytes: &[u8],
+    mtl_loader: impl Fn(&Path) -> Result<Vec<u8>>,
+    report_degenerate: bool,
+    reader: Reader,
+) -> Result<LoadedMesh> {
     let mesh_error = |line: Option<usize>, message: String| Error::Mesh { path: path.to_path_buf(), line, message };
     if let Some(message) = format_by_content(bytes) {
         return Err(Error::Input { path: path.to_path_buf(), message });
@@ -185,12 +208,33 @@ pub(crate) fn parse_obj_inner(
     let libraries: RefCell<Vec<Option<Vec<String>>>> = RefCell::new(Vec::new());
     let mtl_warnings = RefCell::new(Vec::new());
     let options = tobj::LoadOptions { triangulate: true, single_index: true, ignore_points: true, ignore_lines: true };
-    let loaded = tobj::load_obj_buf(&mut text.as_bytes(), &options, |mtl| {
+    let loader = |mtl: &Path| {
         let (library, notes) = load_library(mtl, &mtl_loader);
         libraries.borrow_mut().push(library.as_ref().ok().map(|(materials, _)| materials.iter().map(|m| m.name.clone()).collect()));
         mtl_warnings.borrow_mut().extend(notes);
         library
+    };
+    // The parallel reader's models, with the materials tobj loaded for its skeleton; tobj
+    // reads the whole file where that reader declines or the skeleton fails (its
+    // libraries' notes then forgotten, as tobj loads them again).
+    let geometry = match reader {
+        Reader::Parallel(None) => fast::read_geometry(&text),
+        Reader::Parallel(Some(chunks)) => fast::read_geometry_in(&text, chunks),
+        Reader::Tobj => None,
+    };
+    let fast = geometry.and_then(|geometry| {
+        let (skeleton, runs) = geometry.skeleton(&text);
+        let (models, materials) = tobj::load_obj_buf(&mut skeleton.as_bytes(), &options, loader).ok()?;
+        Some((geometry.models(models, &runs)?, materials))
     });
+    let loaded = match fast {
+        Some(x) => Ok(x),
+        None => {
+            libraries.borrow_mut().clear();
+            mtl_warnings.borrow_mut().clear();
+            tobj::load_obj_buf(&mut text.as_bytes(), &options, loader)
+        }
+    };
     let (models, materials) = match loaded {
         Ok(x) => x,
         Err(e) => {

@@ -1,6 +1,7 @@
 //! Tests of the OBJ reader.
 
 use super::*;
+use proptest::prelude::*;
 use std::io::Write;
 
 const TRI: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
@@ -381,4 +382,165 @@ fn empty_file_is_an_empty_mesh() {
 fn missing_file_is_an_error_naming_it() {
     let e = load_obj(Path::new("/nonexistent/x.obj")).unwrap_err().to_string();
     assert!(e.contains("/nonexistent/x.obj"), "{e}");
+}
+
+// ---- The parallel reader (`fast.rs`) against tobj ----
+
+/// `a` and `b` the same, float bits and all (NaN too), or the same error.
+fn assert_same(a: &Result<LoadedMesh>, b: &Result<LoadedMesh>, what: &str) {
+    match (a, b) {
+        (Ok(a), Ok(b)) => {
+            let bits = |v: &[Vec3]| v.iter().map(|p| p.to_array().map(f32::to_bits)).collect::<Vec<_>>();
+            assert!(bits(&a.mesh.vertices) == bits(&b.mesh.vertices), "{what}: vertices differ");
+            assert!(bits(&a.mesh.normals) == bits(&b.mesh.normals), "{what}: normals differ");
+            let uv_bits = |v: &[glam::Vec2]| v.iter().map(|p| p.to_array().map(f32::to_bits)).collect::<Vec<_>>();
+            assert!(uv_bits(&a.mesh.uvs) == uv_bits(&b.mesh.uvs), "{what}: uvs differ");
+            assert!(a.mesh.triangles == b.mesh.triangles, "{what}: triangles differ");
+            assert!(a.mesh.material_slots == b.mesh.material_slots, "{what}: material slots differ");
+            assert_eq!(a.materials, b.materials, "{what}: materials differ");
+            assert_eq!(a.warnings, b.warnings, "{what}: warnings differ");
+        }
+        (Err(a), Err(b)) => assert_eq!(a.to_string(), b.to_string(), "{what}: errors differ"),
+        (a, b) => panic!("{what}: one reader failed: {:?} / {:?}", a.as_ref().err(), b.as_ref().err()),
+    }
+}
+
+const TWO_MATERIALS: &[u8] = b"newmtl a\nKd 1 0 0\nnewmtl b\nKd 0 0 1\n";
+
+fn by(src: &[u8], reader: Reader) -> Result<LoadedMesh> {
+    parse_obj_by(Path::new("t.obj"), src, |_| Ok(TWO_MATERIALS.to_vec()), true, reader)
+}
+
+#[test]
+fn the_parallel_reader_reads_the_built_in_models_as_tobj() {
+    for name in crate::scenes::builtin_models() {
+        let bytes = crate::scenes::builtin_model_obj(name).unwrap();
+        let text = decode_text(&bytes).unwrap();
+        let geometry = fast::read_geometry(&text).expect("the built-in models are plain OBJ");
+        assert!(!geometry.skeleton(&text).1.is_empty(), "{name}: no face run");
+        let reference = by(&bytes, Reader::Tobj);
+        assert!(reference.as_ref().is_ok_and(|m| !m.mesh.triangles.is_empty()), "{name}");
+        for chunks in [None, Some(1), Some(7), Some(64)] {
+            assert_same(&by(&bytes, Reader::Parallel(chunks)), &reference, &format!("{name}, {chunks:?} chunks"));
+        }
+    }
+}
+
+#[test]
+fn the_parallel_reader_declines_what_tobj_reads_its_own_way() {
+    let plain = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+    assert!(fast::read_geometry(plain).is_some());
+    for odd in [
+        "v 0 0 0\nv 1 0 0\nv 0 1 0 2\nf 1 2 3\n",     // a weight
+        "v 0 0 0 1 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", // a colour
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -3 -2 -1\n",    // relative indices
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 +3\n",      // a sign
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 0\n",       // index 0
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3/1/1/1\n", // four parts
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 x\n",       // not a number
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nl 1 2 3\n",       // a polyline
+        "v 0 0 0\nv 1 0 0\nv 0\u{a0}1 0\nf 1 2 3\n",  // Unicode whitespace
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n\u{a0}g x\n",
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 1234567890\n", // ten digits
+    ] {
+        assert!(fast::read_geometry(odd).is_none(), "{odd:?}");
+        assert_same(&by(odd.as_bytes(), Reader::Parallel(None)), &by(odd.as_bytes(), Reader::Tobj), odd);
+    }
+    // Read, but an index out of range: tobj's error, through tobj.
+    let out = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n";
+    assert!(fast::read_geometry(out).is_some());
+    let (a, b) = (by(out.as_bytes(), Reader::Parallel(None)), by(out.as_bytes(), Reader::Tobj));
+    assert!(a.is_err(), "an index out of range is an error");
+    assert_same(&a, &b, out);
+}
+
+/// One line of a generated OBJ file.
+fn obj_line() -> impl Strategy<Value = String> {
+    let float = prop_oneof![
+        (-50i32..50).prop_map(|i| i.to_string()),
+        (-1000i32..1000).prop_map(|i| format!("{}", i as f32 / 7.0)),
+        Just("1e-3".to_string()),
+        Just("+2.".to_string()),
+        Just("-0".to_string()),
+        Just(".5".to_string()),
+        Just("nan".to_string()),
+    ];
+    let index = prop_oneof![8 => 1u32..12, 1 => Just(0u32), 1 => 12u32..20];
+    // Element shapes: v, v/vt, v//vn, v/vt/vn, and now and then something else.
+    let element = (index.clone(), index.clone(), index, 0u8..9).prop_map(|(v, t, n, shape)| match shape {
+        0 | 1 => format!("{v}"),
+        2 => format!("{v}/{t}"),
+        3 | 4 => format!("{v}//{n}"),
+        5..=7 => format!("{v}/{t}/{n}"),
+        _ => ["-1", "1/", "1//", "01", "/2", "1/2/3/4", "2/x"][v as usize % 7].to_string(),
+    });
+    let space = prop_oneof![6 => Just(" "), 1 => Just("  "), 1 => Just("\t"), 1 => Just(" \r")];
+    prop_oneof![
+        4 => (proptest::collection::vec(float.clone(), 3..=4), space.clone()).prop_map(|(f, s)| format!("v {}", f.join(s))),
+        2 => proptest::collection::vec(float.clone(), 2..=3).prop_map(|f| format!("vt {}", f.join(" "))),
+        2 => proptest::collection::vec(float, 2..=4).prop_map(|f| format!("vn {}", f.join(" "))),
+        6 => (proptest::collection::vec(element, 1..=6), space).prop_map(|(e, s)| format!("f {}", e.join(s))),
+        1 => prop_oneof![
+            Just("o first".to_string()),
+            Just("g second".to_string()),
+            Just("g".to_string()),
+            Just("usemtl a".to_string()),
+            Just("usemtl b".to_string()),
+            Just("usemtl missing".to_string()),
+            Just("mtllib m.mtl".to_string()),
+            Just("s 1".to_string()),
+            Just("# a comment é".to_string()),
+            Just("".to_string()),
+            Just("   ".to_string()),
+            Just("vp 0.5".to_string()),
+        ],
+    ]
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 400, ..ProptestConfig::default() })]
+
+    #[test]
+    fn the_parallel_reader_gives_tobj_answers(
+        lines in proptest::collection::vec(obj_line(), 0..60),
+        crlf in any::<bool>(),
+        newline_at_end in any::<bool>(),
+        chunks in 1usize..9,
+    ) {
+        let mut src = lines.join(if crlf { "\r\n" } else { "\n" });
+        if newline_at_end {
+            src.push('\n');
+        }
+        let reference = by(src.as_bytes(), Reader::Tobj);
+        assert_same(&by(src.as_bytes(), Reader::Parallel(Some(chunks))), &reference, &src);
+    }
+
+    #[test]
+    fn the_parallel_reader_reads_plain_files_itself(
+        vertices in proptest::collection::vec((-100i32..100, -100i32..100, -100i32..100), 3..40),
+        faces in proptest::collection::vec((proptest::collection::vec(0usize..1000, 3..6), 0u8..3), 1..40),
+        chunks in 1usize..9,
+    ) {
+        // Plain files, groups and materials included: read by the parallel reader, and
+        // as tobj reads them.
+        let mut src = String::from("mtllib m.mtl\n");
+        for (x, y, z) in &vertices {
+            src += &format!("v {} {} {}\nvn 0 0 1\nvt 0.{} 0.5\n", *x as f32 / 3.0, y, z, x.unsigned_abs());
+        }
+        for (k, (f, group)) in faces.iter().enumerate() {
+            match group {
+                1 if k % 3 == 0 => src += "usemtl a\n",
+                2 if k % 5 == 0 => src += &format!("g part{k}\nusemtl b\n"),
+                _ => {}
+            }
+            // One texture index per position mostly, another now and then.
+            let n = vertices.len();
+            let e: Vec<String> = f.iter().map(|i| { let (v, t) = (i % n + 1, if i % 4 == 0 { i / 4 % n + 1 } else { i % n + 1 }); format!("{v}/{t}/{v}") }).collect();
+            src += &format!("f {}\n", e.join(" "));
+        }
+        prop_assert!(fast::read_geometry_in(&src, chunks).is_some());
+        let reference = by(src.as_bytes(), Reader::Tobj);
+        prop_assert!(reference.as_ref().is_ok_and(|m| !m.mesh.triangles.is_empty()));
+        assert_same(&by(src.as_bytes(), Reader::Parallel(Some(chunks))), &reference, &src);
+    }
 }
