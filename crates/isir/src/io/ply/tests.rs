@@ -1,0 +1,215 @@
+//! The direct binary reader (`binary.rs`) against the record reader.
+
+use super::*;
+use proptest::prelude::*;
+
+/// The two readers of `bytes`: the same mesh, float bits and all, the same warnings, or
+/// the same error.
+fn assert_same_readers(bytes: &[u8]) -> Result<LoadedMesh> {
+    let (a, b) = (parse_ply_by(Path::new("t.ply"), bytes, true), parse_ply_by(Path::new("t.ply"), bytes, false));
+    match (&a, &b) {
+        (Ok(a), Ok(b)) => {
+            let bits = |v: &[Vec3]| v.iter().map(|p| p.to_array().map(f32::to_bits)).collect::<Vec<_>>();
+            assert!(bits(&a.mesh.vertices) == bits(&b.mesh.vertices), "vertices differ");
+            assert!(bits(&a.mesh.normals) == bits(&b.mesh.normals), "normals differ");
+            let uv = |v: &[Vec2]| v.iter().map(|p| p.to_array().map(f32::to_bits)).collect::<Vec<_>>();
+            assert!(uv(&a.mesh.uvs) == uv(&b.mesh.uvs), "uvs differ");
+            assert_eq!(a.mesh.triangles, b.mesh.triangles);
+            assert_eq!(a.warnings, b.warnings);
+            assert_eq!(a.format, b.format);
+        }
+        (Err(a), Err(b)) => assert_eq!(a.to_string(), b.to_string()),
+        _ => panic!("one reader failed: {:?} / {:?}", a.as_ref().err(), b.as_ref().err()),
+    }
+    a
+}
+
+/// A scalar type's PLY name and byte size.
+const TYPES: [(&str, usize); 8] =
+    [("char", 1), ("uchar", 1), ("short", 2), ("ushort", 2), ("int", 4), ("uint", 4), ("float", 4), ("double", 8)];
+
+/// `value` written as PLY type `t` (an index of `TYPES`), in either byte order.
+fn put(out: &mut Vec<u8>, t: usize, value: f64, big: bool) {
+    macro_rules! w {
+        ($v:expr) => {
+            if big {
+                out.extend_from_slice(&$v.to_be_bytes())
+            } else {
+                out.extend_from_slice(&$v.to_le_bytes())
+            }
+        };
+    }
+    match t {
+        0 => w!(value as i8),
+        1 => w!(value as u8),
+        2 => w!(value as i16),
+        3 => w!(value as u16),
+        4 => w!(value as i32),
+        5 => w!(value as u32),
+        6 => w!(value as f32),
+        _ => w!(value),
+    }
+}
+
+/// A binary PLY file: vertices with the named properties of the given types (values
+/// from `values`), faces as lists of `count`/`item` types with other properties around,
+/// maybe an element to skip (with a list), maybe a cut body or bytes after it.
+#[allow(clippy::too_many_arguments)]
+fn binary_ply(
+    big: bool,
+    vertex_props: &[(&str, usize)],
+    values: &[f64],
+    vertices: usize,
+    faces: &[Vec<i64>],
+    (count, item): (usize, usize),
+    extra_face_prop: bool,
+    skipped: bool,
+    cut: Option<usize>,
+) -> Vec<u8> {
+    let format = if big { "binary_big_endian" } else { "binary_little_endian" };
+    let mut h = format!("ply\nformat {format} 1.0\nelement vertex {vertices}\n");
+    for (name, t) in vertex_props {
+        h += &format!("property {} {name}\n", TYPES[*t].0);
+    }
+    if skipped {
+        h += "element material 2\nproperty uchar red\nproperty list uchar float weights\n";
+    }
+    h += &format!("element face {}\n", faces.len());
+    if extra_face_prop {
+        h += "property ushort flags\n";
+    }
+    h += &format!("property list {} {} vertex_indices\n", TYPES[count].0, TYPES[item].0);
+    if extra_face_prop {
+        h += "property list uchar float texcoord\n";
+    }
+    h += "end_header\n";
+    let mut out = h.into_bytes();
+    let mut k = 0;
+    for _ in 0..vertices {
+        for (_, t) in vertex_props {
+            put(&mut out, *t, values[k % values.len()], big);
+            k += 1;
+        }
+    }
+    if skipped {
+        for m in 0..2 {
+            out.push(m);
+            out.push(m);
+            for w in 0..m {
+                put(&mut out, 6, f64::from(w) * 0.5, big);
+            }
+        }
+    }
+    for f in faces {
+        if extra_face_prop {
+            put(&mut out, 3, 9.0, big);
+        }
+        put(&mut out, count, f.len() as f64, big);
+        for &i in f {
+            put(&mut out, item, i as f64, big);
+        }
+        if extra_face_prop {
+            out.push(2);
+            put(&mut out, 6, 0.25, big);
+            put(&mut out, 6, 0.75, big);
+        }
+    }
+    if let Some(c) = cut {
+        out.truncate(out.len().saturating_sub(c));
+    }
+    out
+}
+
+#[test]
+fn a_binary_file_of_the_usual_layout_is_read_directly() {
+    let faces = vec![vec![0, 1, 2], vec![0, 2, 3, 1], vec![3, 2]];
+    let xyz = [("x", 6), ("y", 6), ("z", 6)];
+    for big in [false, true] {
+        let bytes = binary_ply(big, &xyz, &[0.0, 1.5, -2.25, 3.0], 4, &faces, (1, 4), false, false, None);
+        let mut reader = Reader::new(&bytes[..]);
+        let header = Parser::<Skip>::new().read_header(&mut reader).unwrap();
+        let body = binary::read(&header, reader.get_ref()).expect("read directly");
+        assert_eq!(body.triangles, vec![[0, 1, 2], [0, 2, 3], [0, 3, 1]]);
+        assert_eq!(body.short, (1, 2));
+        let m = assert_same_readers(&bytes).unwrap();
+        assert_eq!(m.mesh.vertices[1], Vec3::new(3.0, 0.0, 1.5));
+    }
+}
+
+#[test]
+fn what_the_direct_reader_declines_is_read_record_by_record() {
+    let xyz = [("x", 6), ("y", 6), ("z", 6)];
+    let tri = vec![vec![0, 1, 2]];
+    let declined = [
+        ("an index past the vertices", binary_ply(false, &xyz, &[1.0], 3, &[vec![0, 1, 3]], (1, 4), false, false, None)),
+        ("a negative index", binary_ply(false, &xyz, &[1.0], 3, &[vec![0, -1, 2]], (1, 4), false, false, None)),
+        ("a body cut short", binary_ply(false, &xyz, &[1.0], 3, &tri, (1, 4), false, false, Some(3))),
+        ("no z", binary_ply(false, &xyz[..2], &[1.0], 3, &tri, (1, 4), false, false, None)),
+        ("float indices", binary_ply(false, &xyz, &[1.0], 3, &tri, (1, 6), false, false, None)),
+    ];
+    // Two index lists: the record reader keeps the last.
+    let mut two = b"ply\nformat binary_little_endian 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n\
+element face 1\nproperty list uchar int vertex_index\nproperty list uchar int vertex_indices\nend_header\n"
+        .to_vec();
+    for k in 0..12u8 {
+        two.extend(f32::from(k).to_le_bytes());
+    }
+    for list in [[0i32, 1, 2], [1, 2, 3]] {
+        two.push(3);
+        list.iter().for_each(|i| two.extend(i.to_le_bytes()));
+    }
+    assert_eq!(assert_same_readers(&two).unwrap().mesh.triangles, vec![[1, 2, 3]]);
+    let declined = declined.into_iter().chain([("two index lists", two)]);
+    for (what, bytes) in declined {
+        let mut reader = Reader::new(&bytes[..]);
+        let header = Parser::<Skip>::new().read_header(&mut reader).unwrap();
+        assert!(binary::read(&header, reader.get_ref()).is_none(), "{what}");
+        let _ = assert_same_readers(&bytes);
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 300, ..ProptestConfig::default() })]
+
+    #[test]
+    fn the_direct_reader_gives_the_record_readers_answers(
+        big in any::<bool>(),
+        extra in proptest::collection::vec((prop_oneof![
+            3 => "[a-z]{1,3}",
+            1 => prop_oneof![Just("nx"), Just("ny"), Just("nz"), Just("s"), Just("t"), Just("texture_u"), Just("x")].prop_map(String::from),
+        ], 0usize..8), 0..4),
+        types in (0usize..8, 0usize..8, 0usize..8),
+        normals in any::<bool>(),
+        uvs in any::<bool>(),
+        values in proptest::collection::vec(-300.0f64..300.0, 1..20),
+        vertices in 0usize..12,
+        faces in proptest::collection::vec(proptest::collection::vec((0i64..1000, 0u8..60), 0..6), 0..12),
+        list_types in (prop_oneof![Just(0usize), Just(1), Just(3), Just(5)], 0usize..6),
+        extra_face_prop in any::<bool>(),
+        skipped in any::<bool>(),
+        cut in prop_oneof![3 => Just(None), 1 => (0usize..20).prop_map(Some)],
+        trailing in proptest::collection::vec(any::<u8>(), 0..3),
+    ) {
+        let mut props: Vec<(String, usize)> = vec![("x".into(), types.0), ("y".into(), types.1), ("z".into(), types.2)];
+        if normals {
+            props.extend([("nx".into(), 6), ("ny".into(), 7), ("nz".into(), 6)]);
+        }
+        if uvs {
+            props.extend([("u".into(), 6), ("v".into(), 6)]);
+        }
+        // Other properties anywhere, some named as isir's ('s' is a texture coordinate).
+        for (k, (name, t)) in extra.into_iter().enumerate() {
+            let at = (k * 2) % (props.len() + 1);
+            props.insert(at, (name, t));
+        }
+        let named: Vec<(&str, usize)> = props.iter().map(|(n, t)| (n.as_str(), *t)).collect();
+        // Indices of the vertices, now and then one out of range.
+        let faces: Vec<Vec<i64>> = faces
+            .iter()
+            .map(|f| f.iter().map(|&(i, bad)| match bad { 0 => -1, 1 => vertices as i64, _ => i % vertices.max(1) as i64 }).collect())
+            .collect();
+        let mut bytes = binary_ply(big, &named, &values, vertices, &faces, list_types, extra_face_prop, skipped, cut);
+        bytes.extend(trailing);
+        let _ = assert_same_readers(&bytes);
+    }
+}
