@@ -40,6 +40,8 @@ pub(super) struct Geometry {
     /// The other lines, for tobj: each line's byte range (without its newline) and how
     /// many faces came before it.
     others: Vec<(Range<usize>, usize)>,
+    /// `v` lines with a colour.
+    colored: usize,
 }
 
 /// At least this many bytes per chunk: below it a file is read on one thread.
@@ -77,6 +79,12 @@ pub(super) fn read_geometry_in(text: &str, chunks: usize) -> Option<Geometry> {
         all.elements.extend_from_slice(&part.elements);
         all.arities.extend_from_slice(&part.arities);
         all.others.extend(part.others.into_iter().map(|(r, f)| (r, f + faces)));
+        all.colored += part.colored;
+    }
+    // Colours on some vertices only: tobj may then fail on a face (its colour array
+    // shorter than its positions); its to read.
+    if all.colored != 0 && all.colored != all.positions.len() / 3 {
+        return None;
     }
     Some(all)
 }
@@ -149,13 +157,23 @@ fn read_chunk(text: &str, range: Range<usize>) -> Option<Geometry> {
             [b'#', ..] | b"s" => {}
             b"v" | b"vt" | b"vn" | b"f" if !line.is_ascii() => return None,
             b"v" => {
-                for _ in 0..3 {
-                    g.positions.push(float(w.next()?)?);
+                let mut p = [0f32; 3];
+                for x in &mut p {
+                    *x = float(w.next()?)?;
                 }
-                // A weight or a colour: tobj's to read.
-                if w.next().is_some() {
-                    return None;
+                match (w.next(), w.next(), w.next(), w.next()) {
+                    (None, ..) => {}
+                    // A weight: tobj divides by it (and refuses 0).
+                    (Some(weight), None, ..) => {
+                        let weight = float(weight).filter(|&w| w != 0.0)?;
+                        p = p.map(|x| x / weight);
+                    }
+                    // A colour, which isir does not keep; tobj stops at a colour that is
+                    // not a number and may then fail later: its to read.
+                    (Some(r), Some(gr), Some(b), None) if [r, gr, b].into_iter().all(|c| float(c).is_some()) => g.colored += 1,
+                    _ => return None,
                 }
+                g.positions.extend_from_slice(&p);
             }
             b"vt" => {
                 for _ in 0..2 {

@@ -431,21 +431,32 @@ fn the_parallel_reader_declines_what_tobj_reads_its_own_way() {
     let plain = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
     assert!(fast::read_geometry(plain).is_some());
     for odd in [
-        "v 0 0 0\nv 1 0 0\nv 0 1 0 2\nf 1 2 3\n",     // a weight
-        "v 0 0 0 1 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", // a colour
-        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -3 -2 -1\n",    // relative indices
-        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 +3\n",      // a sign
-        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 0\n",       // index 0
-        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3/1/1/1\n", // four parts
-        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 x\n",       // not a number
-        "v 0 0 0\nv 1 0 0\nv 0 1 0\nl 1 2 3\n",       // a polyline
-        "v 0 0 0\nv 1 0 0\nv 0\u{a0}1 0\nf 1 2 3\n",  // Unicode whitespace
+        "v 0 0 0\nv 1 0 0\nv 0 1 0 0\nf 1 2 3\n",                 // a weight of 0
+        "v 0 0 0 1 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",             // a colour on one vertex only
+        "v 0 0 0 1 x 0\nv 1 0 0 1 0 0\nv 0 1 0 1 0 0\nf 1 2 3\n", // a colour not a number
+        "v 0 0 0 1 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",               // five numbers
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -3 -2 -1\n",                // relative indices
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 +3\n",                  // a sign
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 0\n",                   // index 0
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3/1/1/1\n",             // four parts
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 x\n",                   // not a number
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nl 1 2 3\n",                   // a polyline
+        "v 0 0 0\nv 1 0 0\nv 0\u{a0}1 0\nf 1 2 3\n",              // Unicode whitespace
         "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n\u{a0}g x\n",
         "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 1234567890\n", // ten digits
     ] {
         assert!(fast::read_geometry(odd).is_none(), "{odd:?}");
         assert_same(&by(odd.as_bytes(), Reader::Parallel(None)), &by(odd.as_bytes(), Reader::Tobj), odd);
     }
+    // Colours on every vertex (not kept) and weights (divided by): read, as tobj reads them.
+    for read in ["v 0 0 0 1 0 0\nv 1 0 0 0 1 0\nv 0 1 0 0 0 1\nf 1 2 3\n", "v 0 0 0\nv 2 0 0 2\nv 0 3 0 -0.5\nf 1 2 3\n"] {
+        assert!(fast::read_geometry(read).is_some(), "{read:?}");
+        assert_same(&by(read.as_bytes(), Reader::Parallel(None)), &by(read.as_bytes(), Reader::Tobj), read);
+    }
+    assert_eq!(
+        by(b"v 0 0 0\nv 2 0 0 2\nv 0 3 0 -0.5\nf 1 2 3\n", Reader::Parallel(None)).unwrap().mesh.vertices[2],
+        Vec3::new(0.0, -6.0, 0.0)
+    );
     // Read, but an index out of range: tobj's error, through tobj.
     let out = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n";
     assert!(fast::read_geometry(out).is_some());
@@ -477,6 +488,7 @@ fn obj_line() -> impl Strategy<Value = String> {
     let space = prop_oneof![6 => Just(" "), 1 => Just("  "), 1 => Just("\t"), 1 => Just(" \r")];
     prop_oneof![
         4 => (proptest::collection::vec(float.clone(), 3..=4), space.clone()).prop_map(|(f, s)| format!("v {}", f.join(s))),
+        1 => (proptest::collection::vec(float.clone(), 5..=7), space.clone()).prop_map(|(f, s)| format!("v {}", f.join(s))),
         2 => proptest::collection::vec(float.clone(), 2..=3).prop_map(|f| format!("vt {}", f.join(" "))),
         2 => proptest::collection::vec(float, 2..=4).prop_map(|f| format!("vn {}", f.join(" "))),
         6 => (proptest::collection::vec(element, 1..=6), space).prop_map(|(e, s)| format!("f {}", e.join(s))),
