@@ -37,11 +37,23 @@ pub(super) struct Geometry {
     elements: Vec<Element>,
     /// Every face's element count.
     arities: Vec<u32>,
-    /// The other lines, for tobj: each line's byte range (without its newline) and how
-    /// many faces came before it.
-    others: Vec<(Range<usize>, usize)>,
+    /// The other lines, for tobj: each line's byte range (without its newline), how
+    /// many faces came before it, and the positions, texture coordinates and normals.
+    others: Vec<(Range<usize>, usize, Counts)>,
     /// `v` lines with a colour.
     colored: usize,
+}
+
+/// How many positions, texture coordinates and normals.
+type Counts = [usize; 3];
+
+/// A run of faces between two other lines: tobj's model holding them ends at the first
+/// or a later one, and checks their indices against what was read by then, at least
+/// the `counts` at the end of the run.
+#[derive(Clone, Debug)]
+pub(super) struct Run {
+    faces: Range<usize>,
+    counts: Counts,
 }
 
 /// At least this many bytes per chunk: below it a file is read on one thread.
@@ -73,12 +85,13 @@ pub(super) fn read_geometry_in(text: &str, chunks: usize) -> Option<Geometry> {
     for part in parts {
         let part = part?;
         let faces = all.arities.len();
+        let before = all.counts();
         all.positions.extend_from_slice(&part.positions);
         all.texcoords.extend_from_slice(&part.texcoords);
         all.normals.extend_from_slice(&part.normals);
         all.elements.extend_from_slice(&part.elements);
         all.arities.extend_from_slice(&part.arities);
-        all.others.extend(part.others.into_iter().map(|(r, f)| (r, f + faces)));
+        all.others.extend(part.others.into_iter().map(|(r, f, c)| (r, f + faces, [0, 1, 2].map(|k| c[k] + before[k]))));
         all.colored += part.colored;
     }
     // Colours on some vertices only: tobj may then fail on a face (its colour array
@@ -201,39 +214,44 @@ fn read_chunk(text: &str, range: Range<usize>) -> Option<Geometry> {
             // The first word of another line must read the same to tobj, which splits
             // words at any Unicode whitespace.
             _ if !key.is_ascii() => return None,
-            _ => g.others.push((line_range, g.arities.len())),
+            _ => g.others.push((line_range, g.arities.len(), g.counts())),
         }
     }
     Some(g)
 }
 
 impl Geometry {
+    /// Positions, texture coordinates and normals read so far.
+    fn counts(&self) -> Counts {
+        [self.positions.len() / 3, self.texcoords.len() / 2, self.normals.len() / 3]
+    }
+
     /// The skeleton for tobj: one vertex, then the other lines in file order, each run of
-    /// faces between them as one face `f 1 1 1`; and the face ranges of those runs.
-    pub(super) fn skeleton(&self, text: &str) -> (String, Vec<Range<usize>>) {
+    /// faces between them as one face `f 1 1 1`; and those runs.
+    pub(super) fn skeleton(&self, text: &str) -> (String, Vec<Run>) {
         let mut s = String::from("v 0 0 0\n");
         let mut runs = Vec::new();
         let mut faces = 0;
-        let mut run_to = |s: &mut String, upto: usize| {
+        let mut run_to = |s: &mut String, upto: usize, counts: Counts| {
             if upto > faces {
                 s.push_str("f 1 1 1\n");
-                runs.push(faces..upto);
+                runs.push(Run { faces: faces..upto, counts });
                 faces = upto;
             }
         };
-        for (range, before) in &self.others {
-            run_to(&mut s, *before);
+        for (range, before, counts) in &self.others {
+            run_to(&mut s, *before, *counts);
             s.push_str(&text[range.clone()]);
             s.push('\n');
         }
-        run_to(&mut s, self.arities.len());
+        run_to(&mut s, self.arities.len(), self.counts());
         (s, runs)
     }
 
     /// tobj's models of this geometry, given the models it made of the skeleton (each
     /// holding one face per run) and the runs; `None` where tobj would fail (an index out
     /// of range) or the skeleton's models do not match the runs.
-    pub(super) fn models(&self, skeleton_models: Vec<tobj::Model>, runs: &[Range<usize>]) -> Option<Vec<tobj::Model>> {
+    pub(super) fn models(&self, skeleton_models: Vec<tobj::Model>, runs: &[Run]) -> Option<Vec<tobj::Model>> {
         // Where each face's elements start, for the runs' first faces.
         let mut first_element = Vec::with_capacity(self.arities.len() + 1);
         let mut at = 0usize;
@@ -253,12 +271,7 @@ impl Geometry {
             let count = m.indices.len() / 3;
             let mine = runs.get(next_run..next_run + count)?;
             next_run += count;
-            let faces = match mine {
-                [] => 0..0,
-                [first, .., last] => first.start..last.end,
-                [only] => only.clone(),
-            };
-            let mesh = self.export(&faces, &first_element, m.material_id, &mut numbering)?;
+            let mesh = self.export(mine, &first_element, m.material_id, &mut numbering)?;
             models.push(tobj::Model::new(mesh, model.name));
         }
         (next_run == runs.len()).then_some(models)
@@ -266,28 +279,40 @@ impl Geometry {
 
     /// One model's mesh, as tobj's `export_faces` makes it: vertices numbered in order of
     /// first use, triangles fanned from each face's first element, faces of fewer than
-    /// three elements left out (points and lines are ignored).
-    fn export(
-        &self,
-        faces: &Range<usize>,
-        first_element: &[usize],
-        material_id: Option<usize>,
-        numbering: &mut Numbering,
-    ) -> Option<tobj::Mesh> {
+    /// three elements left out (points and lines are ignored). `None` where what tobj
+    /// reads depends on where the model ends: an index past what its run's end had read
+    /// (tobj may fail), or texture coordinates or normals none at a run's end but some
+    /// later (tobj may leave them out).
+    fn export(&self, runs: &[Run], first_element: &[usize], material_id: Option<usize>, numbering: &mut Numbering) -> Option<tobj::Mesh> {
         let mut mesh = tobj::Mesh { material_id, ..Default::default() };
         numbering.restart();
         let mut ids = Vec::new();
-        for f in faces.clone() {
-            let elements = &self.elements[first_element[f]..first_element[f + 1]];
-            if elements.len() < 3 {
-                continue;
+        let total = self.counts();
+        for run in runs {
+            let [v_max, vt_max, vn_max] = run.counts;
+            if (vt_max == 0) != (total[1] == 0) || (vn_max == 0) != (total[2] == 0) {
+                return None;
             }
-            ids.clear();
-            for e in elements {
-                ids.push(numbering.number(e, || self.add_vertex(&mut mesh, e))?);
-            }
-            for k in 1..ids.len() - 1 {
-                mesh.indices.extend_from_slice(&[ids[0], ids[k], ids[k + 1]]);
+            let within = |e: &Element| {
+                (e[0] as usize) < v_max
+                    && (e[1] == MISSING || vt_max == 0 || (e[1] as usize) < vt_max)
+                    && (e[2] == MISSING || vn_max == 0 || (e[2] as usize) < vn_max)
+            };
+            for f in run.faces.clone() {
+                let elements = &self.elements[first_element[f]..first_element[f + 1]];
+                if elements.len() < 3 {
+                    continue;
+                }
+                ids.clear();
+                for e in elements {
+                    if !within(e) {
+                        return None;
+                    }
+                    ids.push(numbering.number(e, || self.add_vertex(&mut mesh, e))?);
+                }
+                for k in 1..ids.len() - 1 {
+                    mesh.indices.extend_from_slice(&[ids[0], ids[k], ids[k + 1]]);
+                }
             }
         }
         Some(mesh)

@@ -417,7 +417,12 @@ fn the_parallel_reader_reads_the_built_in_models_as_tobj() {
         let bytes = crate::scenes::builtin_model_obj(name).unwrap();
         let text = decode_text(&bytes).unwrap();
         let geometry = fast::read_geometry(&text).expect("the built-in models are plain OBJ");
-        assert!(!geometry.skeleton(&text).1.is_empty(), "{name}: no face run");
+        // Read by the parallel reader to the end (not declined to tobj on the way).
+        let (skeleton, runs) = geometry.skeleton(&text);
+        assert!(!runs.is_empty(), "{name}: no face run");
+        let options = tobj::LoadOptions { triangulate: true, single_index: true, ignore_points: true, ignore_lines: true };
+        let (models, _) = tobj::load_obj_buf(&mut skeleton.as_bytes(), &options, |_| tobj::load_mtl_buf(&mut &TWO_MATERIALS[..])).unwrap();
+        assert!(geometry.models(models, &runs).is_some(), "{name}: declined");
         let reference = by(&bytes, Reader::Tobj);
         assert!(reference.as_ref().is_ok_and(|m| !m.mesh.triangles.is_empty()), "{name}");
         for chunks in [None, Some(1), Some(7), Some(64)] {
@@ -555,4 +560,28 @@ proptest! {
         prop_assert!(reference.as_ref().is_ok_and(|m| !m.mesh.triangles.is_empty()));
         assert_same(&by(src.as_bytes(), Reader::Parallel(Some(chunks))), &reference, &src);
     }
+}
+
+#[test]
+fn what_tobj_reads_depends_on_where_a_model_ends_goes_through_tobj() {
+    // tobj checks a model's indices, and decides whether it has texture coordinates and
+    // normals, when the model ends (`o`, `g`, a new `usemtl`, the end of the file), with
+    // what it had read by then. (Found by review: the parallel reader had used the whole
+    // file's lines.)
+    for src in [
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\no b\nv 1 1 0\n",
+        "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\nusemtl a\nv 1 1 0\n",
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/1 2/1 3/1\ng b\nvt 0.5 0.5\n",
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/1 2/2 3/1\ng b\nvt 0.5 0.5\n",
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1//1 2//1 3//1\ng b\nvn 0 0 1\n",
+    ] {
+        let reference = by(src.as_bytes(), Reader::Tobj);
+        for chunks in [1, 3] {
+            assert_same(&by(src.as_bytes(), Reader::Parallel(Some(chunks))), &reference, src);
+        }
+    }
+    // Within one model, lines after its faces count: read by the parallel reader.
+    let later = "f 1/1 2/1 3/1\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0.5 0.5\n";
+    assert!(fast::read_geometry(later).is_some());
+    assert_same(&by(later.as_bytes(), Reader::Parallel(None)), &by(later.as_bytes(), Reader::Tobj), later);
 }

@@ -197,10 +197,17 @@ fn read_faces(def: &ElementDef, bytes: &[u8], big: bool, vertex_count: usize, ou
             }
         });
     }
-    // Every record then takes at least a byte, so the loop below ends with the body.
-    if index_lists > 1 || steps.is_empty() {
+    if index_lists > 1 {
         return None;
     }
+    // Records without properties take no bytes: faces without indices, all short.
+    if steps.is_empty() {
+        if def.count > 0 {
+            out.short = (def.count, 0);
+        }
+        return Some(());
+    }
+    // Every record now takes at least a byte, so the loop below ends with the body.
     // Nothing allocated for faces the file does not hold: at least 13 bytes a triangle.
     out.triangles.reserve(def.count.min(bytes.len() / 13));
     let mut face = Vec::new();

@@ -19,8 +19,9 @@
 //!   acceleration structures (never hit) and counted in a warning, as for OBJ files; in an
 //!   ASCII file `nan` or `inf` is not a number the PLY grammar knows: an error with the line;
 //! - memory: the header's counts only bound the reading; nothing is allocated for what the
-//!   file does not actually hold (at most 65,536 records ahead), and the file itself is
-//!   read within the input limit ([`crate::io::input`]).
+//!   file does not actually hold (at most 65,536 records ahead; binary elements without
+//!   properties, whose records take no bytes, are not read record by record), and the
+//!   file itself is read within the input limit ([`crate::io::input`]).
 
 use crate::error::{Error, Result};
 use crate::geometry::TriangleMesh;
@@ -232,9 +233,19 @@ fn read_records<R: std::io::BufRead>(
     let ascii = header.encoding == ply_rs_bw::ply::Encoding::Ascii;
     let mut vertices: Option<Vec<Vertex>> = None;
     let mut faces: Vec<Face> = Vec::new();
+    // Faces of a binary element without properties (no indices: all short).
+    let mut empty_faces = 0;
     for def in header.elements.values() {
         let what = format!("element '{}' ({} declared)", def.name, def.count);
+        // A binary record without properties takes no bytes, and the crate would make one
+        // per declared record (10^12 if the header says so: memory, or time). What they
+        // would give: vertices without x y z (an error if there are any), faces without
+        // indices, nothing.
+        let empty = !ascii && def.properties.is_empty();
         match def.name.as_str() {
+            "vertex" if empty => vertices = Some(vec![Vertex::default(); def.count.min(1)]),
+            "face" if empty => (faces, empty_faces) = (Vec::new(), def.count),
+            _ if empty => {}
             "vertex" => {
                 vertices =
                     Some(Parser::<Vertex>::new().read_payload_for_element(reader, def, header).map_err(|e| parse_error(&what, e, ascii))?)
@@ -284,6 +295,9 @@ fn read_records<R: std::io::BufRead>(
         for k in 1..i.len() - 1 {
             triangles.push([i[0] as u32, i[k] as u32, i[k + 1] as u32]);
         }
+    }
+    if empty_faces > 0 {
+        short = (empty_faces, 0);
     }
     Ok(Body { positions, normals, uvs, triangles, short })
 }

@@ -349,3 +349,34 @@ element face {faces}\nproperty list uchar uint vertex_indices\nend_header\n{tie}
     let m = assert_same_readers(src.as_bytes()).unwrap();
     assert!(m.warnings.iter().any(|w| w.contains(&format!("the first: face {}", ascii::FACE_CHUNK + 7))), "{:?}", m.warnings);
 }
+
+#[test]
+fn binary_elements_without_properties_cost_nothing_whatever_their_count() {
+    // Records of no bytes: the crate's reader would make one per declared record (memory
+    // for 10^12 vertices or faces, or 10^18 steps over a skipped element).
+    let head = "ply\nformat binary_little_endian 1.0\n";
+    let three_vertices = |extra: &str| {
+        let mut b = format!("{head}{extra}element vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n").into_bytes();
+        for k in 0..9u8 {
+            b.extend(f32::from(k).to_le_bytes());
+        }
+        b
+    };
+    // Vertices without x y z: the error, at once.
+    let e = assert_same_readers(format!("{head}element vertex 1000000000000\nend_header\n").as_bytes()).unwrap_err().to_string();
+    assert!(e.contains("no x, y and z"), "{e}");
+    // Faces without indices: all short.
+    let m = assert_same_readers(format!("{head}element vertex 0\nproperty float x\nelement face 1000000000000\nend_header\n").as_bytes())
+        .unwrap();
+    assert!(m.warnings.iter().any(|w| w.contains("1000000000000 faces with fewer than three vertices")), "{:?}", m.warnings);
+    // A skipped element of 10^18 records, then a face index out of range (so the record
+    // reader reads the file): its error, at once.
+    let mut b = three_vertices("element junk 1000000000000000000\n");
+    b.extend([3, 0, 0, 0, 0, 1, 0, 0, 0, 9, 0, 0, 0]);
+    let e = assert_same_readers(&b).unwrap_err().to_string();
+    assert!(e.contains("refers to vertex 9"), "{e}");
+    // The same element before a valid face: read.
+    let mut b = three_vertices("element junk 1000000000000000000\n");
+    b.extend([3, 0, 0, 0, 0, 1, 0, 0, 0, 2, 0, 0, 0]);
+    assert_eq!(assert_same_readers(&b).unwrap().mesh.triangles, vec![[0, 1, 2]]);
+}
