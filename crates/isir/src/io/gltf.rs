@@ -258,13 +258,7 @@ fn parse_inner(
         if all_uvs && !uvs.is_empty() {
             mesh.uvs = uvs;
         }
-        let stats = mesh.stats();
-        if stats.triangles == 0 {
-            warnings.push("no triangles".into());
-        }
-        if stats.degenerate > 0 {
-            warnings.push(format!("{} degenerate triangles (zero area or non-finite vertices) are never hit", stats.degenerate));
-        }
+        warnings.extend(crate::io::obj::mesh_warnings(&mesh, true));
         let format = if is_glb(bytes) { "glTF 2.0 (binary .glb)" } else { "glTF 2.0" }.into();
         results.push(LoadedMesh { mesh, materials: materials.clone(), warnings, format });
     }

@@ -292,14 +292,22 @@ fn parse_obj_by(
     if all_uvs {
         mesh.uvs = uvs; // unused by the course's materials so far, kept for textures
     }
-    let stats = mesh.stats();
-    if stats.triangles == 0 {
-        warnings.push("no triangles".into());
-    }
-    if stats.degenerate > 0 && report_degenerate {
-        warnings.push(format!("{} degenerate triangles (zero area or non-finite vertices) are never hit", stats.degenerate));
-    }
+    warnings.extend(mesh_warnings(&mesh, report_degenerate));
     Ok(LoadedMesh { mesh, materials, warnings, format: "Wavefront OBJ".into() })
+}
+
+/// What every mesh reader says about the mesh it made: no triangles, and, when
+/// `degenerate`, how many triangles are degenerate.
+pub(crate) fn mesh_warnings(mesh: &TriangleMesh, degenerate: bool) -> Vec<String> {
+    let stats = mesh.stats();
+    let mut w = Vec::new();
+    if stats.triangles == 0 {
+        w.push("no triangles".into());
+    }
+    if stats.degenerate > 0 && degenerate {
+        w.push(format!("{} degenerate triangles (zero area or non-finite vertices) are never hit", stats.degenerate));
+    }
+    w
 }
 
 /// The colour of a material's `Kd`: white when absent or not finite (NaN would blacken

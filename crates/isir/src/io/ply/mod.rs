@@ -313,13 +313,7 @@ fn finish(body: Body, header: &ply_rs_bw::ply::Header) -> Result<LoadedMesh> {
     if let Some(uvs) = uvs {
         mesh.uvs = uvs;
     }
-    let stats = mesh.stats();
-    if stats.triangles == 0 {
-        warnings.push("no triangles".into());
-    }
-    if stats.degenerate > 0 {
-        warnings.push(format!("{} degenerate triangles (zero area or non-finite vertices) are never hit", stats.degenerate));
-    }
+    warnings.extend(crate::io::obj::mesh_warnings(&mesh, true));
     let format = match header.encoding {
         ply_rs_bw::ply::Encoding::Ascii => "PLY (ASCII)",
         ply_rs_bw::ply::Encoding::BinaryLittleEndian => "PLY (binary little endian)",
