@@ -11,11 +11,15 @@
 //!
 //! The result is tobj's, value for value: the same floats (the same `f32::from_str`),
 //! each model's vertices numbered in the order tobj numbers them (first use, one number
-//! per distinct position/texture/normal triple), polygons fanned as tobj fans them. A
-//! file outside the plain subset read here (relative or signed indices, `v` lines with a
-//! weight or colours, non-ASCII geometry lines, an index out of range, anything tobj
-//! would reject) gets `None`, and tobj reads the whole file as before, so that its
-//! answer, or its error, is unchanged. Tests compare the two readers on generated files.
+//! per distinct position/texture/normal triple), polygons fanned as tobj fans them,
+//! weights divided by. tobj checks a model's indices, and decides whether it has texture
+//! coordinates and normals, when the model ends, with the lines read by then: each run
+//! keeps the counts at its end, and what would depend on where its model ends is
+//! declined. A file outside the plain subset read here (relative or signed indices,
+//! colours on some vertices only, non-ASCII geometry lines, an index out of range,
+//! anything tobj would reject) gets `None`, and tobj reads the whole file as before, so
+//! that its answer, or its error, is unchanged. Tests compare the two readers on
+//! generated files.
 
 use rayon::prelude::*;
 use std::collections::HashMap;
