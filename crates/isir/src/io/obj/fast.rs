@@ -21,6 +21,7 @@
 //! that its answer, or its error, is unchanged. Tests compare the two readers on
 //! generated files.
 
+use super::scan::is_space;
 use rayon::prelude::*;
 use std::collections::HashMap;
 use std::ops::Range;
@@ -85,7 +86,9 @@ pub(super) fn read_geometry_in(text: &str, chunks: usize) -> Option<Geometry> {
     }
     cuts.push(bytes.len());
     let parts: Vec<Option<Geometry>> = cuts.par_windows(2).map(|w| read_chunk(text, w[0]..w[1])).collect();
-    let mut all = Geometry::default();
+    // The first chunk's arrays kept (a file of one chunk is not copied), the others after.
+    let mut parts = parts.into_iter();
+    let mut all = parts.next()??;
     for part in parts {
         let part = part?;
         let faces = all.arities.len();
@@ -104,11 +107,6 @@ pub(super) fn read_geometry_in(text: &str, chunks: usize) -> Option<Geometry> {
         return None;
     }
     Some(all)
-}
-
-/// Rust's (and so tobj's) ASCII whitespace: ' ' and 9..=13, vertical tab included.
-fn is_space(b: u8) -> bool {
-    b == b' ' || b.wrapping_sub(9) < 5
 }
 
 /// The words of one ASCII line, split as `split_whitespace` splits it.

@@ -41,6 +41,12 @@ pub(super) struct ObjScan {
     pub(super) hide: Vec<usize>,
 }
 
+/// Rust's (and so tobj's) ASCII whitespace: ' ' and 9..=13, vertical tab included.
+#[inline]
+pub(super) fn is_space(b: u8) -> bool {
+    b == b' ' || b.wrapping_sub(9) < 5
+}
+
 /// The shape of a face line's elements, found without parsing them.
 pub(super) struct FaceShape {
     pub(super) words: usize,
@@ -68,8 +74,7 @@ pub(super) fn face_shape(rest: &str) -> (FaceShape, usize) {
             continue;
         }
         digits = 0;
-        // Rust's (and so tobj's) ASCII whitespace: ' ' and 9..=13, vertical tab included.
-        if b == b' ' || b.wrapping_sub(9) < 5 {
+        if is_space(b) {
             if b == b'\n' {
                 len = i;
                 break;

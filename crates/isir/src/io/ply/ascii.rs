@@ -13,7 +13,6 @@
 //! return, list properties on vertices, a second index list, a face index out of range.
 
 use super::{Body, Vertex};
-use glam::{Vec2, Vec3};
 use ply_rs_bw::ply::{ElementDef, Encoding, Header, PropertyType, ScalarType};
 use rayon::prelude::*;
 use std::ops::Range;
@@ -183,27 +182,14 @@ fn read_vertices(def: &ElementDef, body: &[u8], lines: &[Range<usize>], out: &mu
         for &(ty, slot) in &plan {
             let s = it.next()?;
             match slot {
-                Some(slot) => {
-                    let x = as_f32(ty, s)?;
-                    match slot {
-                        0..=2 => v.p[slot] = x,
-                        3..=5 => v.n[slot - 3] = x,
-                        _ => v.uv[slot - 6] = x,
-                    }
-                }
+                Some(slot) => v.put(slot, as_f32(ty, s)?),
                 None => parses(ty, s).then_some(())?,
             }
         }
         Some(v)
     };
     let records: Vec<Vertex> = lines.par_iter().with_min_len(1 << 12).map(read).collect::<Option<_>>()?;
-    out.positions = records.iter().map(|v| Vec3::from(v.p)).collect();
-    if !lines.is_empty() && present & 0b111_000 == 0b111_000 {
-        out.normals = records.iter().map(|v| Vec3::from(v.n)).collect();
-    }
-    if !lines.is_empty() && present & 0b1100_0000 == 0b1100_0000 {
-        out.uvs = Some(records.iter().map(|v| Vec2::from(v.uv)).collect());
-    }
+    out.set_vertices(&records);
     Some(())
 }
 
@@ -244,38 +230,23 @@ fn read_faces(def: &ElementDef, body: &[u8], lines: &[Range<usize>], vertex_coun
         }
         Some(())
     };
-    // Chunks of faces on every thread, each chunk's fans and short faces, then in order.
-    type Chunk = Option<(Vec<[u32; 3]>, Vec<usize>)>;
-    let chunks: Vec<Chunk> = lines
+    // Chunks of faces on every thread, each read into a body of its own, then in order.
+    let chunks: Vec<Option<Body>> = lines
         .par_chunks(FACE_CHUNK)
         .enumerate()
         .map(|(c, ls)| {
-            let mut tris = Vec::with_capacity(ls.len());
-            let mut short = Vec::new();
+            let mut chunk = Body { triangles: Vec::with_capacity(ls.len()), ..Body::default() };
             let mut face = Vec::new();
             for (k, l) in ls.iter().enumerate() {
                 read(l, &mut face)?;
-                if face.len() < 3 {
-                    short.push(c * FACE_CHUNK + k);
-                    continue;
-                }
-                for k in 1..face.len() - 1 {
-                    tris.push([face[0], face[k], face[k + 1]]);
-                }
+                chunk.add_face(c * FACE_CHUNK + k, &face);
             }
-            Some((tris, short))
+            Some(chunk)
         })
         .collect();
     out.triangles.reserve(lines.len());
     for chunk in chunks {
-        let (tris, short) = chunk?;
-        out.triangles.extend_from_slice(&tris);
-        if let Some(&first) = short.first() {
-            if out.short.0 == 0 {
-                out.short.1 = first;
-            }
-            out.short.0 += short.len();
-        }
+        out.append_faces(chunk?);
     }
     Some(())
 }

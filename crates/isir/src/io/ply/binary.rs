@@ -13,7 +13,6 @@
 //! body shorter than the header says, a vertex without `x y z`, a face index out of range.
 
 use super::{Body, Vertex};
-use glam::{Vec2, Vec3};
 use ply_rs_bw::ply::{ElementDef, Encoding, Header, PropertyType, ScalarType};
 use rayon::prelude::*;
 
@@ -152,24 +151,13 @@ fn read_vertices(def: &ElementDef, bytes: &[u8], big: bool, out: &mut Body, at: 
     let read = |r: &[u8]| {
         let mut v = Vertex::default();
         for &(offset, t, slot) in &plan {
-            let x = as_f32(t, &r[offset..], big);
-            match slot {
-                0..=2 => v.p[slot] = x,
-                3..=5 => v.n[slot - 3] = x,
-                _ => v.uv[slot - 6] = x,
-            }
+            v.put(slot, as_f32(t, &r[offset..], big));
         }
         v
     };
     let records: Vec<Vertex> =
         if record == 0 { vec![Vertex::default(); n] } else { bytes.par_chunks_exact(record).with_min_len(1 << 14).map(read).collect() };
-    out.positions = records.iter().map(|v| Vec3::from(v.p)).collect();
-    if n > 0 && present & 0b111_000 == 0b111_000 {
-        out.normals = records.iter().map(|v| Vec3::from(v.n)).collect();
-    }
-    if n > 0 && present & 0b1100_0000 == 0b1100_0000 {
-        out.uvs = Some(records.iter().map(|v| Vec2::from(v.uv)).collect());
-    }
+    out.set_vertices(&records);
     *at += bytes.len();
     Some(())
 }
@@ -202,9 +190,7 @@ fn read_faces(def: &ElementDef, bytes: &[u8], big: bool, vertex_count: usize, ou
     }
     // Records without properties take no bytes: faces without indices, all short.
     if steps.is_empty() {
-        if def.count > 0 {
-            out.short = (def.count, 0);
-        }
+        out.add_short(0, def.count);
         return Some(());
     }
     // Every record now takes at least a byte, so the loop below ends with the body.
@@ -235,16 +221,7 @@ fn read_faces(def: &ElementDef, bytes: &[u8], big: bool, vertex_count: usize, ou
         if p > bytes.len() {
             return None;
         }
-        if face.len() < 3 {
-            if out.short.0 == 0 {
-                out.short.1 = f;
-            }
-            out.short.0 += 1;
-            continue;
-        }
-        for k in 1..face.len() - 1 {
-            out.triangles.push([face[0], face[k], face[k + 1]]);
-        }
+        out.add_face(f, &face);
     }
     *at += p;
     Some(())

@@ -61,14 +61,19 @@ impl Vertex {
         })
     }
 
-    fn set(&mut self, name: &str, value: f32) -> PropertyAccessResult {
-        let Some(i) = Self::slot(name) else { return PropertyAccessResult::Ignored };
+    /// `value` into slot `i` (see [`Self::slot`]), marked present.
+    fn put(&mut self, i: usize, value: f32) {
         match i {
             0..=2 => self.p[i] = value,
             3..=5 => self.n[i - 3] = value,
             _ => self.uv[i - 6] = value,
         }
         self.present |= 1 << i;
+    }
+
+    fn set(&mut self, name: &str, value: f32) -> PropertyAccessResult {
+        let Some(i) = Self::slot(name) else { return PropertyAccessResult::Ignored };
+        self.put(i, value);
         PropertyAccessResult::Set
     }
 }
@@ -182,8 +187,8 @@ pub fn parse_ply(path: &Path, bytes: &[u8]) -> Result<LoadedMesh> {
     parse_ply_by(path, bytes, true)
 }
 
-/// [`parse_ply`], the body of a binary file read directly when `direct` (and it can be),
-/// otherwise record by record.
+/// [`parse_ply`], the body read directly when `direct` (and it can be: `binary.rs`,
+/// `ascii.rs`), otherwise record by record.
 fn parse_ply_by(path: &Path, bytes: &[u8], direct: bool) -> Result<LoadedMesh> {
     let fail = |line: Option<usize>, message: String| Error::Mesh { path: path.to_path_buf(), line, message };
     if !is_ply(bytes) {
@@ -223,6 +228,49 @@ pub(super) struct Body {
     short: (usize, usize),
 }
 
+impl Body {
+    /// The vertices' positions, and their normals and texture coordinates where the
+    /// records have all of them (every record has the first's properties).
+    fn set_vertices(&mut self, records: &[Vertex]) {
+        let present = records.first().map_or(0, |v| v.present);
+        self.positions = records.iter().map(|v| Vec3::from(v.p)).collect();
+        if present & 0b111_000 == 0b111_000 {
+            self.normals = records.iter().map(|v| Vec3::from(v.n)).collect();
+        }
+        if present & 0b1100_0000 == 0b1100_0000 {
+            self.uvs = Some(records.iter().map(|v| Vec2::from(v.uv)).collect());
+        }
+    }
+
+    /// Face `f` (its indices checked): its fan, or counted when it has fewer than three
+    /// vertices.
+    fn add_face(&mut self, f: usize, face: &[u32]) {
+        if face.len() < 3 {
+            self.add_short(f, 1);
+            return;
+        }
+        for k in 1..face.len() - 1 {
+            self.triangles.push([face[0], face[k], face[k + 1]]);
+        }
+    }
+
+    /// `count` faces of fewer than three vertices, the first of them face `first`.
+    fn add_short(&mut self, first: usize, count: usize) {
+        if count > 0 {
+            if self.short.0 == 0 {
+                self.short.1 = first;
+            }
+            self.short.0 += count;
+        }
+    }
+
+    /// The faces of `later`, read after this body's.
+    fn append_faces(&mut self, later: Body) {
+        self.triangles.extend_from_slice(&later.triangles);
+        self.add_short(later.short.1, later.short.0);
+    }
+}
+
 /// The body read record by record through `ply-rs-bw`, each problem named.
 fn read_records<R: std::io::BufRead>(
     header: &ply_rs_bw::ply::Header,
@@ -244,7 +292,7 @@ fn read_records<R: std::io::BufRead>(
         let empty = !ascii && def.properties.is_empty();
         match def.name.as_str() {
             "vertex" if empty => vertices = Some(vec![Vertex::default(); def.count.min(1)]),
-            "face" if empty => (faces, empty_faces) = (Vec::new(), def.count),
+            "face" if empty => empty_faces = def.count,
             _ if empty => {}
             "vertex" => {
                 vertices =
@@ -266,40 +314,24 @@ fn read_records<R: std::io::BufRead>(
             return Err(fail(None, "the 'vertex' element has no x, y and z properties".into()));
         }
     }
-    let positions: Vec<Vec3> = vertices.iter().map(|v| Vec3::from(v.p)).collect();
-    let with_normals = vertices.first().is_some_and(|v| v.present & 0b111_000 == 0b111_000);
-    let normals: Vec<Vec3> = if with_normals { vertices.iter().map(|v| Vec3::from(v.n)).collect() } else { Vec::new() };
-    let with_uvs = vertices.first().is_some_and(|v| v.present & 0b1100_0000 == 0b1100_0000);
-    let uvs = with_uvs.then(|| vertices.iter().map(|v| Vec2::from(v.uv)).collect());
-    let mut triangles = Vec::with_capacity(faces.len());
-    let mut short = (0usize, 0usize); // (count, first face)
+    let mut body = Body::default();
+    body.set_vertices(&vertices);
+    let n = body.positions.len();
+    body.triangles.reserve(faces.len());
+    let mut indices = Vec::new();
     for (f, face) in faces.iter().enumerate() {
-        if let Some(&bad) = face.indices.iter().find(|&&i| i < 0 || i as u64 >= positions.len() as u64) {
+        if let Some(&bad) = face.indices.iter().find(|&&i| i < 0 || i as u64 >= n as u64) {
             return Err(fail(
                 None,
-                format!(
-                    "face {f} (0-based) refers to vertex {bad}, but there are {} vertices (0 to {})",
-                    positions.len(),
-                    positions.len() as i64 - 1
-                ),
+                format!("face {f} (0-based) refers to vertex {bad}, but there are {n} vertices (0 to {})", n as i64 - 1),
             ));
         }
-        if face.indices.len() < 3 {
-            if short.0 == 0 {
-                short.1 = f;
-            }
-            short.0 += 1;
-            continue;
-        }
-        let i = &face.indices;
-        for k in 1..i.len() - 1 {
-            triangles.push([i[0] as u32, i[k] as u32, i[k + 1] as u32]);
-        }
+        indices.clear();
+        indices.extend(face.indices.iter().map(|&i| i as u32));
+        body.add_face(f, &indices);
     }
-    if empty_faces > 0 {
-        short = (empty_faces, 0);
-    }
-    Ok(Body { positions, normals, uvs, triangles, short })
+    body.add_short(0, empty_faces);
+    Ok(body)
 }
 
 /// The mesh of a body, with its warnings.
