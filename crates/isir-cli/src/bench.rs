@@ -4,19 +4,21 @@
 //! print, one table per engine, the ratio isir / Embree and the hit agreement.
 
 use crate::trace::{build_timed, trace_timed, Mode, TraceFigures};
-use crate::{threads_phrase, warn_all, with_threads};
+use crate::{out, threads_phrase, warn_all, with_threads};
 use anyhow::Context;
 use clap::Args;
 use isir::rays::{self, compare_hits, HitRecord, RayKind};
-use isir::scenes::{MeshSource, SceneDescription, ShapeDesc};
-use isir::{Accel, Scene};
+use isir::scenes::{MeshSource, SceneDescription};
+use isir::{Accel, Geometry, Scene, TriangleMesh};
 use std::collections::HashMap;
+use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
 #[derive(Args, Debug)]
 pub struct BenchArgs {
-    /// A built-in scene (default tp4-conference) or a mesh file (.obj, .ply, optionally .gz).
+    /// A built-in scene (default tp4-conference), a scene file (.toml: its first mesh, as
+    /// placed) or a mesh file (.obj, .ply, .gltf, .glb, optionally .gz).
     pub target: Option<String>,
     /// The Embree 3 tool (default: `embree3-bench` or `embree-bench` on PATH, then in
     /// ~/.cache/isir/, where tools/embree3-bench/build.sh puts it).
@@ -30,7 +32,7 @@ pub struct BenchArgs {
     #[arg(long)]
     pub no_embree: bool,
     /// Embree build quality.
-    #[arg(long, default_value = "medium")]
+    #[arg(long, default_value = "medium", value_parser = ["low", "medium", "high"])]
     pub embree_quality: String,
     /// Width of the ray sets.
     #[arg(long, default_value_t = 1200)]
@@ -38,8 +40,8 @@ pub struct BenchArgs {
     /// Height of the ray sets.
     #[arg(long, default_value_t = 800)]
     pub height: u32,
-    /// Best of this many builds (at most 3) and traces.
-    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..))]
+    /// Best of this many builds (at most 3) and traces (at most 1000, as the Embree tools).
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..=1000))]
     pub repeat: u32,
     /// Threads for both engines (default: one per core; at most 1024).
     #[arg(long)]
@@ -47,11 +49,14 @@ pub struct BenchArgs {
     /// Seed of the diffuse and shadow rays.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Keep the ray, mesh and hit files in this directory (default: a temporary one).
+    /// Keep the ray files, the mesh as OBJ (unless the target is a plain OBJ file) and
+    /// Embree's hit files in this directory, created if need be (default: a temporary one,
+    /// removed at the end).
     #[arg(long)]
     pub keep: Option<PathBuf>,
-    /// Run the whole comparison this many times (isir, then Embree, per round) and print
-    /// medians, and the ratio's median with its range: the machine's noise in one table.
+    /// Run the whole comparison this many times (isir, then Embree, per round; at most 99)
+    /// and print medians, and the ratio's median with its range: the machine's noise in
+    /// one table.
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=99))]
     pub rounds: u32,
     /// When isir's threads trace 16 rays at a time (auto: when the tree is larger than the
@@ -99,7 +104,8 @@ fn median(mut v: Vec<f64>) -> f64 {
 fn find_tool(explicit: &Option<PathBuf>, option: &str, names: &[&str]) -> anyhow::Result<Option<PathBuf>> {
     if let Some(p) = explicit {
         // Said now, not after minutes of isir's own measurements.
-        anyhow::ensure!(p.is_file(), "{option} {}: no such file", p.display());
+        anyhow::ensure!(p.exists(), "{option} {}: no such file", p.display());
+        anyhow::ensure!(p.is_file(), "{option} {}: not a file (the path of the tool's binary)", p.display());
         return Ok(Some(p.clone()));
     }
     if let Ok(path) = std::env::var("PATH") {
@@ -157,7 +163,10 @@ fn run_embree(
         cmd.arg("--occluded");
     }
     let out = cmd.output().with_context(|| format!("running {}", bin.display()))?;
-    anyhow::ensure!(out.status.success(), "{} failed: {}", bin.display(), String::from_utf8_lossy(&out.stderr).trim());
+    // Its first line of error (the problem), not the usage page that may follow.
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let reason = stderr.lines().map(str::trim).find(|l| !l.is_empty()).map_or_else(|| format!("{}", out.status), str::to_string);
+    anyhow::ensure!(out.status.success(), "{} failed: {reason}", bin.display());
     Ok(String::from_utf8_lossy(&out.stdout)
         .lines()
         .filter_map(|l| l.split_once(": ").map(|(k, v)| (k.to_string(), v.trim().to_string())))
@@ -172,43 +181,109 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
     with_threads(a.threads, || run_in_pool(&a))?
 }
 
+/// The most rays per set: `isir bench` holds its four sets (32 bytes a ray) and its five
+/// traces' hit records (16 bytes) in memory at once, about 210 bytes a ray, 3.5 GB here.
+const MAX_BENCH_RAYS: u64 = 4096 * 4096;
+
+/// The ray sets' size: both sides at least 1, at most [`MAX_BENCH_RAYS`] rays.
+fn check_bench_size(width: u32, height: u32) -> anyhow::Result<()> {
+    let n = u64::from(width) * u64::from(height);
+    anyhow::ensure!(width > 0 && height > 0, "--width {width} --height {height}: both must be at least 1");
+    anyhow::ensure!(
+        n <= MAX_BENCH_RAYS,
+        "--width {width} --height {height}: {n} rays per set, more than the {MAX_BENCH_RAYS} (4096x4096) isir bench holds in \
+         memory (about 210 bytes a ray: {:.1} GB for these)",
+        n as f64 * 210e-9
+    );
+    Ok(())
+}
+
+/// The benchmark's folder: `--keep`'s (created if need be, kept), or a temporary one that
+/// goes when this does, on an error or a panic too.
+struct WorkDir {
+    path: PathBuf,
+    keep: bool,
+}
+
+impl WorkDir {
+    fn new(keep: Option<&Path>) -> anyhow::Result<Self> {
+        match keep {
+            Some(p) => {
+                anyhow::ensure!(!p.exists() || p.is_dir(), "--keep {}: not a directory", p.display());
+                std::fs::create_dir_all(p).with_context(|| format!("--keep {}", p.display()))?;
+                Ok(Self { path: p.to_path_buf(), keep: true })
+            }
+            None => {
+                let t = tempfile::Builder::new().prefix("isir-bench-").tempdir().context("creating a temporary folder")?;
+                Ok(Self { path: t.keep(), keep: false })
+            }
+        }
+    }
+}
+
+impl Drop for WorkDir {
+    fn drop(&mut self) {
+        if !self.keep {
+            std::fs::remove_dir_all(&self.path).ok();
+        }
+    }
+}
+
 fn run_in_pool(a: &BenchArgs) -> anyhow::Result<()> {
-    isir::image::check_size(a.width, a.height)?;
+    check_bench_size(a.width, a.height)?;
     let engines = find_engines(a)?;
     let name = a.target.clone().unwrap_or_else(|| "tp4-conference".to_string());
     let (desc, scene) = crate::render::build_scene(&name, Accel::BvhSah, isir::triangle::TriangleTest::MollerTrumbore)?;
     warn_all(&scene.warnings);
-    let source = desc
-        .objects
-        .iter()
-        .find_map(|o| match &o.shape {
-            ShapeDesc::Mesh { source, .. } => Some(source.clone()),
-            _ => None,
-        })
-        .with_context(|| format!("{name}: the scene has no mesh to benchmark"))?;
-    let dir = a.keep.clone().unwrap_or_else(|| std::env::temp_dir().join(format!("isir-bench-{}", std::process::id())));
-    std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
-    let result = bench_in(a, &name, &desc, &scene, source, &dir, &engines);
-    if a.keep.is_none() {
-        std::fs::remove_dir_all(&dir).ok(); // on failure too
-    } else {
-        println!("files kept in {}", dir.display());
+    let (mesh, source) = bench_mesh(&scene, &desc).with_context(|| format!("{name}: the scene has no mesh to benchmark"))?;
+    let dir = WorkDir::new(a.keep.as_deref())?;
+    let mut report = bench_in(a, &name, &desc, &scene, mesh, source, &dir.path, &engines)?;
+    if dir.keep {
+        let _ = write!(report, "\nfiles kept in {}", dir.path.display());
     }
-    result
+    // The table printed once the files are gone (a reader that stops early ends the
+    // process at the first line it misses).
+    drop(dir);
+    out!("{report}");
+    Ok(())
 }
 
-/// The benchmark proper, writing its files in `dir`.
+/// The mesh to trace, in world space, and where its file comes from when it can be given
+/// to Embree as it is: the scene's first mesh, or the first placed one (a scene file's
+/// mesh with a `transform`, a glTF node), whose vertices are moved to where they stand.
+fn bench_mesh(scene: &Scene, desc: &SceneDescription) -> Option<(TriangleMesh, Option<MeshSource>)> {
+    use isir::scenes::ShapeDesc;
+    scene.objects.iter().find_map(|o| match &o.geometry {
+        Geometry::Mesh(m) => {
+            // The file as it is, when the scene's first mesh object is this plain mesh.
+            let source = desc.objects.iter().find_map(|d| match &d.shape {
+                ShapeDesc::Mesh { source, .. } if d.name == o.name => Some(source.clone()),
+                _ => None,
+            });
+            Some((m.as_ref().clone(), source))
+        }
+        Geometry::Instance(i) => {
+            let to_world = i.to_world();
+            let vertices = i.mesh.vertices.iter().map(|&v| to_world.transform_point3(v)).collect();
+            Some((TriangleMesh::new(vertices, Vec::new(), i.mesh.triangles.clone()), None))
+        }
+        _ => None,
+    })
+}
+
+/// The benchmark proper, writing its files in `dir`: the report to print.
+#[allow(clippy::too_many_arguments)] // the run's parts, each named
 fn bench_in(
     a: &BenchArgs,
     name: &str,
     desc: &SceneDescription,
     scene: &Scene,
-    source: MeshSource,
+    mut mesh: TriangleMesh,
+    source: Option<MeshSource>,
     dir: &Path,
     engines: &[Engine],
-) -> anyhow::Result<()> {
+) -> anyhow::Result<String> {
     // ---- The scene's mesh is the one traced; the four ray sets ----
-    let mut mesh = scene.meshes().next().map(|(_, m)| m.clone()).with_context(|| format!("{name}: the scene has no mesh"))?;
     let camera = desc.camera.build(a.width as f32 / a.height as f32);
     let mut sets = Vec::new();
     for kind in RayKind::ALL {
@@ -221,17 +296,17 @@ fn bench_in(
 
     // ---- The mesh as a plain OBJ file, for Embree ----
     let obj_path = match &source {
-        MeshSource::Builtin(model) => {
+        Some(MeshSource::Builtin(model)) => {
             let p = dir.join(format!("{model}.obj"));
             std::fs::write(&p, isir::scenes::builtin_model_obj(model)?).with_context(|| format!("writing {}", p.display()))?;
             p
         }
-        MeshSource::File(path) if path.extension().is_some_and(|e| e == "obj") => path.clone(),
-        MeshSource::File(_) => {
-            // Compressed, or another format (PLY): the loaded mesh, written as OBJ (floats
-            // in their shortest exact form, so both engines trace the same triangles).
+        Some(MeshSource::File(path)) if path.extension().is_some_and(|e| e == "obj") => path.clone(),
+        _ => {
+            // Compressed, another format (PLY, glTF) or placed by a transform: the loaded
+            // mesh, written as OBJ (floats in their shortest exact form, so both engines
+            // trace the same triangles).
             let p = dir.join("mesh.obj");
-            let (_, mesh) = scene.meshes().next().context("the scene has no mesh")?;
             let mut text = String::with_capacity(mesh.vertices.len() * 40 + mesh.triangles.len() * 24);
             for v in &mesh.vertices {
                 text += &format!("v {:?} {:?} {:?}\n", v.x, v.y, v.z);
@@ -283,7 +358,9 @@ fn bench_in(
     let last = rounds.last().expect("at least one round");
 
     // ---- Table ----
-    println!(
+    let mut report = String::new();
+    let _ = writeln!(
+        report,
         "isir bench: {name}, {} triangles ({} degenerate), {}x{} rays, {}, isir simd {} ({}){}{}",
         build.stats.triangles,
         build.stats.degenerate,
@@ -295,36 +372,45 @@ fn bench_in(
             1 => "single rays one at a time".to_string(),
             n => format!("single rays {n} at a time per thread"),
         },
-        engine_summary(engines, &a.embree_quality),
+        engine_summary(engines, &a.embree_quality, a.no_embree),
         if a.rounds > 1 { format!(", medians of {} rounds", a.rounds) } else { String::new() }
     );
     // One table per engine (the first, Embree 3's, as it has always been); without any, one
     // table of isir's figures alone.
     let size = (build.stats.triangles, f64::from(build.stats.bytes_per_triangle));
     if engines.is_empty() {
-        print_table(&rounds, &sets, size, None, dir)?;
+        print_table(&mut report, &rounds, &sets, size, None, dir)?;
     }
     for (i, e) in engines.iter().enumerate() {
         if i > 0 {
-            println!();
+            report.push('\n');
         }
-        print_table(&rounds, &sets, size, Some((i, e)), dir)?;
+        print_table(&mut report, &rounds, &sets, size, Some((i, e)), dir)?;
     }
-    println!(
+    let _ = write!(
+        report,
         "sah_cost: {:.3}  nodes: {}  bytes_per_triangle: {:.1}",
         build.stats.sah_cost, build.stats.nodes, build.stats.bytes_per_triangle
     );
     for (i, (label, _, set, _)) in sets.iter().enumerate() {
         if let Some((n, t)) = last.ours[i].visits {
-            println!("{label}: {} rays, {} hits, {n:.2} node visits and {t:.2} triangle tests per ray", set.len(), last.ours[i].hits);
+            let _ = write!(
+                report,
+                "\n{label}: {} rays, {} hits, {n:.2} node visits and {t:.2} triangle tests per ray",
+                set.len(),
+                last.ours[i].hits
+            );
         }
     }
-    Ok(())
+    Ok(report)
 }
 
 /// The header's words on the engines: Embree 3's as they have always been, then Embree 4's
 /// when found.
-fn engine_summary(engines: &[Engine], quality: &str) -> String {
+fn engine_summary(engines: &[Engine], quality: &str, not_run: bool) -> String {
+    if not_run {
+        return ", Embree not run (--no-embree)".to_string();
+    }
     let found = |label: &str| engines.iter().find(|e| e.label == label).map(|e| e.bin.display().to_string());
     let mut s = match found("embree") {
         Some(bin) => format!(", embree-bench {bin} (quality {quality})"),
@@ -342,6 +428,7 @@ type RaySet = (&'static str, RayKind, Vec<isir::rays::RayRecord>, PathBuf);
 /// One table: isir's figures, and with `engine` (its index in each round's figures) that
 /// engine's, the per-round ratios and the hit agreement of the last round.
 fn print_table(
+    report: &mut String,
     rounds: &[Round],
     sets: &[RaySet],
     (triangles, our_bytes_per_tri): (usize, f64),
@@ -350,11 +437,11 @@ fn print_table(
 ) -> anyhow::Result<()> {
     let label = engine.map_or("embree", |(_, e)| e.label);
     let last = rounds.last().expect("at least one round");
-    println!("{:<28} {:>12} {:>12} {:>20} {:>14}", "figure", "isir", label, format!("isir/{label}"), "hits agree");
+    let _ = writeln!(report, "{:<28} {:>12} {:>12} {:>20} {:>14}", "figure", "isir", label, format!("isir/{label}"), "hits agree");
     // One row from per-round figures: isir's, the engine's (NaN when not run), the ratio of
     // each round (inverted for times), and the hit agreement.
     let cell = |x: f64| if x.is_finite() { format!("{x:.2}") } else { "-".to_string() };
-    let row = |label: &str, ours: &[f64], theirs: &[f64], ratio_of: Option<fn(f64, f64) -> f64>, agree: &str| {
+    let mut row = |label: &str, ours: &[f64], theirs: &[f64], ratio_of: Option<fn(f64, f64) -> f64>, agree: &str| {
         let ratios: Vec<f64> = match ratio_of {
             Some(f) => ours.iter().zip(theirs).map(|(&o, &t)| f(o, t)).filter(|r| r.is_finite()).collect(),
             None => Vec::new(),
@@ -367,7 +454,12 @@ fn print_table(
                 format!("{:.2} ({lo:.2}-{hi:.2})", median(ratios))
             }
         };
-        println!("{label:<28} {:>12} {:>12} {ratio:>20} {agree:>14}", cell(median(ours.to_vec())), cell(median(theirs.to_vec())));
+        let _ = writeln!(
+            report,
+            "{label:<28} {:>12} {:>12} {ratio:>20} {agree:>14}",
+            cell(median(ours.to_vec())),
+            cell(median(theirs.to_vec()))
+        );
     };
     let agreement = |file: &str, ours: &[HitRecord]| -> anyhow::Result<String> {
         let theirs = rays::read_hits(&dir.join(file))?;

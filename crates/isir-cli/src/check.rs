@@ -1,6 +1,7 @@
 //! `isir check FILE.toml`: read a scene file, load its meshes, report what it holds and
 //! what loading had to say, without rendering.
 
+use crate::out;
 use clap::Args;
 use isir::geometry::Geometry;
 use std::path::PathBuf;
@@ -24,13 +25,13 @@ pub fn run(a: CheckArgs) -> anyhow::Result<()> {
             _ => 0,
         })
         .sum();
-    println!("{}: ok", a.scene.display());
-    println!("image:      {}x{}, {} spp, {}", file.width.unwrap_or(600), file.height.unwrap_or(400), d.spp, d.integrator.name());
-    println!("objects:    {} ({triangles} triangles in meshes)", scene.objects.len());
-    println!("materials:  {} named", d.materials.len());
-    println!("lights:     {}", d.lights.len());
+    out!("{}: ok", a.scene.display());
+    out!("image:      {}x{}, {} spp, {}", file.width.unwrap_or(600), file.height.unwrap_or(400), d.spp, d.integrator.name());
+    out!("objects:    {} ({triangles} triangles in meshes)", scene.objects.len());
+    out!("materials:  {} named", d.materials.len());
+    out!("lights:     {}", d.lights.len());
     for w in &scene.warnings {
-        println!("warning:    {w}");
+        out!("warning:    {w}");
     }
     Ok(())
 }

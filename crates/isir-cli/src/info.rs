@@ -1,5 +1,6 @@
 //! `isir info MESH`: what a mesh file holds, as isir reads it.
 
+use crate::out;
 use clap::Args;
 use std::path::PathBuf;
 
@@ -14,34 +15,34 @@ pub fn run(a: InfoArgs) -> anyhow::Result<()> {
     let m = &loaded.mesh;
     let stats = m.stats();
     let b = m.aabb();
-    println!("file:       {}", a.mesh.display());
-    println!("format:     {}", loaded.format);
-    println!("triangles:  {} ({} degenerate: zero area or non-finite, never hit)", stats.triangles, stats.degenerate);
-    println!("vertices:   {}", m.vertices.len());
-    println!(
+    out!("file:       {}", a.mesh.display());
+    out!("format:     {}", loaded.format);
+    out!("triangles:  {} ({} degenerate: zero area or non-finite, never hit)", stats.triangles, stats.degenerate);
+    out!("vertices:   {}", m.vertices.len());
+    out!(
         "normals:    {}",
         if m.normals.is_empty() { "none (face normals)".to_string() } else { format!("{} (per vertex)", m.normals.len()) }
     );
-    println!("uvs:        {}", if m.uvs.is_empty() { "none".to_string() } else { format!("{} (per vertex)", m.uvs.len()) });
+    out!("uvs:        {}", if m.uvs.is_empty() { "none".to_string() } else { format!("{} (per vertex)", m.uvs.len()) });
     if b.is_empty() {
-        println!("bounds:     empty");
+        out!("bounds:     empty");
     } else {
-        println!("bounds:     {} to {} (size {})", b.min, b.max, b.max - b.min);
+        out!("bounds:     {} to {} (size {})", b.min, b.max, b.max - b.min);
     }
-    println!("materials:  {}", loaded.materials.len());
+    out!("materials:  {}", loaded.materials.len());
     for (i, mat) in loaded.materials.iter().enumerate() {
         let used = m.material_slots.iter().filter(|&&s| s as usize == i).count();
-        println!("  {:<20} colour {} ({used} triangles)", mat.name, mat.diffuse);
+        out!("  {:<20} colour {} ({used} triangles)", mat.name, mat.diffuse);
     }
     let unassigned = m.material_slots.iter().filter(|&&s| s as usize >= loaded.materials.len()).count();
     if unassigned > 0 {
-        println!("  (no material)        {unassigned} triangles");
+        out!("  (no material)        {unassigned} triangles");
     }
     if loaded.warnings.is_empty() {
-        println!("dropped:    nothing");
+        out!("dropped:    nothing");
     } else {
         for w in &loaded.warnings {
-            println!("note:       {w}");
+            out!("note:       {w}");
         }
     }
     Ok(())

@@ -9,6 +9,30 @@ mod trace;
 
 use clap::{Parser, Subcommand};
 
+/// `println!` for the command's output: when standard output is a pipe whose reader has
+/// gone (`isir scenes | head -1`), the process ends quietly (status 0) instead of
+/// panicking as `println!` does; when it cannot be written otherwise (a full disk), it
+/// ends with one error line (status 1).
+macro_rules! out {
+    ($($arg:tt)*) => {
+        $crate::write_out(format_args!($($arg)*))
+    };
+}
+pub(crate) use out;
+
+/// What [`out!`] does.
+pub fn write_out(args: std::fmt::Arguments) {
+    use std::io::Write;
+    let mut stdout = std::io::stdout().lock();
+    if let Err(e) = stdout.write_fmt(args).and_then(|()| stdout.write_all(b"\n")) {
+        if e.kind() == std::io::ErrorKind::BrokenPipe {
+            std::process::exit(0);
+        }
+        eprintln!("isir: error: writing the output: {e}");
+        std::process::exit(1);
+    }
+}
+
 /// isir: a CPU ray tracer for the ISIR ray-tracing course.
 #[derive(Parser, Debug)]
 #[command(name = "isir", version, about, long_about = None)]
@@ -86,7 +110,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Some(Command::Check(a)) => check::run(a),
         Some(Command::Scenes) => {
             for (name, summary) in isir::scenes::list() {
-                println!("{name:<24} {summary}");
+                out!("{name:<24} {summary}");
             }
             Ok(())
         }

@@ -1,5 +1,6 @@
 //! `isir render`.
 
+use crate::out;
 use crate::{threads_phrase, warn_all, with_threads};
 use anyhow::Context;
 use clap::{Args, ValueEnum};
@@ -226,7 +227,7 @@ fn render_in_pool(a: &RenderArgs, width: u32, height: u32) -> anyhow::Result<()>
     } else {
         format!("{} NaN, {} Inf, {} negative samples", bad.nan, bad.inf, bad.negative)
     };
-    println!(
+    out!(
         "isir: {name} {}x{} {spp} spp, {}, {}, {}: build {:.3} s, render {:.3} s, {:.2} M rays ({:.2} M primary, {:.2} M shadow, {:.2} M secondary), \
          {:.2} Mrays/s, {samples} -> wrote {}",
         width,
@@ -257,7 +258,7 @@ fn render_in_pool(a: &RenderArgs, width: u32, height: u32) -> anyhow::Result<()>
             ),
             _ => String::new(),
         };
-        println!("isir: {} AOV -> wrote {}{detail}", aov.name(), path.display());
+        out!("isir: {} AOV -> wrote {}{detail}", aov.name(), path.display());
     }
     Ok(())
 }

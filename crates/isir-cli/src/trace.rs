@@ -1,5 +1,6 @@
 //! `isir rays` (write a ray set) and `isir trace` (trace a ray file against a mesh).
 
+use crate::out;
 use crate::{load_mesh, warn_all, with_threads};
 use clap::Args;
 use isir::geometry::{MeshAccel, TriangleMesh};
@@ -50,8 +51,9 @@ pub struct TraceArgs {
     /// Worker threads (default: one per core; at most 1024).
     #[arg(long)]
     pub threads: Option<usize>,
-    /// Time the build and the trace this many times and keep the best.
-    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..))]
+    /// Time the trace this many times and keep the best (at most 1000); the build is the
+    /// best of `min(K, 3)`, as the Embree tools do.
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..=1000))]
     pub repeat: u32,
     /// Code path of the wide BVH, bvh-sah only (scalar, avx2, avx512; default: the
     /// best this CPU has).
@@ -60,8 +62,9 @@ pub struct TraceArgs {
     /// Use the watertight ray–triangle test (Woop et al.) instead of Möller–Trumbore.
     #[arg(long)]
     pub watertight: bool,
-    /// Trace consecutive rays in packets of 16 (AVX-512; for coherent rays such as
-    /// primary rays; closest hits only).
+    /// Trace consecutive rays in packets of 16 (for coherent rays such as primary rays;
+    /// closest hits only): AVX-512 packets on the avx512 path, AVX2 streams on the avx2
+    /// one, one ray at a time on the scalar one.
     #[arg(long)]
     pub packets: bool,
     /// When a thread traces 16 rays at a time, each next node prefetched while it steps
@@ -90,7 +93,7 @@ pub fn rays(a: RaysArgs) -> anyhow::Result<()> {
     let camera = desc.camera.build(a.width as f32 / a.height as f32);
     // Written as generated, a band of rows at a time: memory bounded whatever the size.
     let n = rays::write_ray_set(&a.output, &scene, &camera, a.width, a.height, a.kind, a.seed)?;
-    println!("rays: {n}\nwrote: {}", a.output.display());
+    out!("rays: {n}\nwrote: {}", a.output.display());
     Ok(())
 }
 
@@ -229,8 +232,8 @@ fn trace_in_pool(a: &TraceArgs) -> anyhow::Result<()> {
         anyhow::ensure!(mesh.set_interleave(a.interleave), "--interleave applies to --accel bvh-sah only");
     }
     let f = trace_timed(&mesh, &set, mode, a.repeat);
-    println!("engine: isir {}", env!("CARGO_PKG_VERSION"));
-    println!(
+    out!("engine: isir {}", env!("CARGO_PKG_VERSION"));
+    out!(
         "threads: {}\nmode: {}\naccel: {}\nsimd: {}\ntriangle_test: {:?}",
         rayon::current_num_threads(),
         match mode {
@@ -243,14 +246,14 @@ fn trace_in_pool(a: &TraceArgs) -> anyhow::Result<()> {
         mesh.triangle_test
     );
     if mode != Mode::Packets {
-        println!("rays_in_flight: {}", mesh.rays_in_flight());
+        out!("rays_in_flight: {}", mesh.rays_in_flight());
     }
-    println!("triangles: {}\ndegenerate_triangles: {}\nrays: {}\nhits: {}", b.stats.triangles, b.stats.degenerate, f.rays, f.hits);
-    println!("build_ms: {:.2}\nbuild_mtris_per_s: {:.2}", b.build_ms, b.build_mtris_per_s());
-    println!("trace_ms: {:.2}\nmrays_per_s: {:.2}", f.trace_ms, f.mrays_per_s());
-    println!("sah_cost: {:.3}\nnodes: {}\nbytes_per_triangle: {:.1}", b.stats.sah_cost, b.stats.nodes, b.stats.bytes_per_triangle);
+    out!("triangles: {}\ndegenerate_triangles: {}\nrays: {}\nhits: {}", b.stats.triangles, b.stats.degenerate, f.rays, f.hits);
+    out!("build_ms: {:.2}\nbuild_mtris_per_s: {:.2}", b.build_ms, b.build_mtris_per_s());
+    out!("trace_ms: {:.2}\nmrays_per_s: {:.2}", f.trace_ms, f.mrays_per_s());
+    out!("sah_cost: {:.3}\nnodes: {}\nbytes_per_triangle: {:.1}", b.stats.sah_cost, b.stats.nodes, b.stats.bytes_per_triangle);
     if let Some((n, t)) = f.visits {
-        println!("avg_node_visits: {n:.2}\navg_triangle_tests: {t:.2}");
+        out!("avg_node_visits: {n:.2}\navg_triangle_tests: {t:.2}");
     }
     if let Some(out) = &a.hits {
         rays::write_hits(out, &f.hit_records)?;

@@ -175,7 +175,7 @@ fn bench_rounds_print_medians_and_reject_zero() {
         "1",
     ]);
     assert_eq!(code, 0, "{err}");
-    assert!(out.contains("medians of 3 rounds") && out.contains("embree-bench not found"), "{out}");
+    assert!(out.contains("medians of 3 rounds") && out.contains("Embree not run (--no-embree)"), "{out}");
     for row in ["build (Mtris/s)", "build (ms)", "primary closest", "diffuse closest", "shadow occluded", "primary packets/stream"] {
         let line = out.lines().find(|l| l.starts_with(row)).unwrap_or_else(|| panic!("no '{row}' row in:\n{out}"));
         let figure: f64 = line[row.len()..].split_whitespace().find_map(|w| w.parse().ok()).unwrap_or(f64::NAN);
@@ -608,7 +608,7 @@ fn bench_with_embree_3_alone_prints_its_one_table_and_no_embree_runs_none() {
     fake_embree(&e4);
     let (code, out, err) = bench_with_cache(&cache, &["--no-embree"]);
     assert_eq!(code, 0, "{err}");
-    assert!(out.contains("embree-bench not found") && !out.contains("embree4"), "{out}");
+    assert!(out.contains("Embree not run (--no-embree)") && !out.contains("embree4"), "{out}");
     assert!(!e4.with_extension("log").exists(), "embree4-bench ran despite --no-embree");
 }
 
@@ -624,10 +624,140 @@ fn bench_names_a_missing_or_failing_embree_tool() {
     // A tool that fails: its message, and its name.
     let broken = tmp("bench-broken/embree4-bench");
     fake_embree(&broken);
-    std::fs::write(&broken, "#!/bin/sh\necho 'cannot open mesh' >&2\nexit 1\n").unwrap();
+    std::fs::write(&broken, "#!/bin/sh\necho 'cannot open mesh' >&2\necho 'usage: embree4-bench MESH RAYS' >&2\nexit 1\n").unwrap();
     let (code, _, err) = bench_with_cache(&cache, &["--embree4", broken.to_str().unwrap()]);
+    // Its first line (the problem), not the usage page after it.
     one_line_error(code, &err, "cannot open mesh");
-    assert!(err.contains(broken.to_str().unwrap()), "{err}");
+    assert!(err.contains(broken.to_str().unwrap()) && !err.contains("usage"), "{err}");
+    // A folder given as the tool.
+    let (code, _, err) = bench_with_cache(&cache, &["--embree", cache.to_str().unwrap()]);
+    one_line_error(code, &err, "not a file");
+}
+
+/// `isir bench` with `TMPDIR` set to a fresh folder, stdout piped and closed at once when
+/// `close_stdout` (a reader that stops early): its status, stderr, and whether the folder
+/// is empty afterwards.
+#[cfg(unix)]
+fn bench_in_tmpdir(name: &str, extra: &[&str], close_stdout: bool) -> (i32, String, bool) {
+    use std::io::Read;
+    use std::process::Stdio;
+    let tmpdir = fresh_dir(name);
+    let cache = fresh_dir(&format!("{name}-cache"));
+    let args = ["bench", "tp4-sphere", "--width", "24", "--height", "16", "--repeat", "1", "--threads", "1"];
+    let mut child = Command::new(env!("CARGO_BIN_EXE_isir"))
+        .args(args.iter().chain(extra))
+        .current_dir(env!("CARGO_TARGET_TMPDIR"))
+        .env("TMPDIR", &tmpdir)
+        .env("XDG_CACHE_HOME", &cache)
+        .env("PATH", "/usr/bin:/bin")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let stdout = child.stdout.take().unwrap();
+    if close_stdout {
+        drop(stdout);
+    } else {
+        std::io::copy(&mut { stdout }, &mut std::io::sink()).unwrap();
+    }
+    let mut err = String::new();
+    child.stderr.take().unwrap().read_to_string(&mut err).unwrap();
+    let status = child.wait().unwrap();
+    let empty = std::fs::read_dir(&tmpdir).unwrap().next().is_none();
+    (status.code().unwrap_or(-1), err, empty)
+}
+
+#[cfg(unix)]
+#[test]
+fn bench_leaves_no_temporary_files_and_a_closed_pipe_is_no_panic() {
+    // A reader that has gone: no panic, status 0, the temporary folder removed.
+    let (code, err, empty) = bench_in_tmpdir("bench-tmp-pipe", &["--no-embree"], true);
+    assert_eq!(code, 0, "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(empty, "the temporary folder was left behind");
+    // A failing Embree tool: an error, and the folder removed too.
+    let broken = tmp("bench-tmp-broken/embree3-bench");
+    fake_embree(&broken);
+    std::fs::write(&broken, "#!/bin/sh\necho 'no memory' >&2\nexit 1\n").unwrap();
+    let (code, err, empty) = bench_in_tmpdir("bench-tmp-fail", &["--embree", broken.to_str().unwrap()], false);
+    one_line_error(code, &err, "no memory");
+    assert!(empty, "the temporary folder was left behind after an error");
+    // `isir scenes` into a pipe read no further.
+    let mut child = Command::new(env!("CARGO_BIN_EXE_isir"))
+        .arg("scenes")
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    assert_eq!(out.status.code(), Some(0));
+    assert!(!String::from_utf8_lossy(&out.stderr).contains("panicked"));
+}
+
+#[test]
+fn bench_checks_its_options_before_any_work() {
+    // Each refused at once, in one line (not after isir's measurements, by the tool).
+    let (code, _, err) = isir_within(10, &["bench", "--embree-quality", "best", "--no-embree"]);
+    one_line_error(code, &err, "--embree-quality");
+    assert!(err.contains("low, medium, high"), "{err}");
+    let (code, _, err) = isir_within(10, &["bench", "--repeat", "2000", "--no-embree"]);
+    one_line_error(code, &err, "--repeat");
+    let (code, _, err) = isir_within(10, &["bench", "--width", "8000", "--height", "8000", "--no-embree"]);
+    one_line_error(code, &err, "4096x4096");
+    let file = tmp("bench-keep-file");
+    std::fs::write(&file, "x").unwrap();
+    let (code, _, err) = isir_within(30, &["bench", "tp4-sphere", "--keep", file.to_str().unwrap(), "--no-embree"]);
+    one_line_error(code, &err, "not a directory");
+}
+
+#[cfg(unix)]
+#[test]
+fn bench_traces_a_scene_files_placed_mesh_where_it_stands() {
+    // A mesh with a transform (an instance in the scene): benchmarked in world space, the
+    // same triangles for isir and for the Embree stand-in (which traces the OBJ written).
+    let scene = tmp("bench-placed.toml");
+    let data = concat!(env!("CARGO_MANIFEST_DIR"), "/../isir/data/uvsphere.obj");
+    std::fs::write(
+        &scene,
+        format!(
+            "[camera]\nposition = [0, 0, -6]\nlook_at = [0, 0, 0]\n\n[[objects]]\ntype = \"mesh\"\nfile = \"{data}\"\n\
+             transform = {{ translate = [0.5, 0, 0], rotate = [0, 30, 0], scale = 2 }}\n\n[[lights]]\ntype = \"point\"\n\
+             position = [0, 3, -5]\ncolor = [1, 1, 1]\npower = 50\n"
+        ),
+    )
+    .unwrap();
+    let cache = fresh_dir("bench-cache-placed");
+    let e3 = cache.join("isir").join("embree3-bench");
+    fake_embree(&e3);
+    let keep = fresh_dir("bench-keep-placed");
+    let out = Command::new(env!("CARGO_BIN_EXE_isir"))
+        .args(["bench", scene.to_str().unwrap(), "--width", "24", "--height", "16", "--repeat", "1", "--threads", "1"])
+        .args(["--keep", keep.to_str().unwrap()])
+        .current_dir(env!("CARGO_TARGET_TMPDIR"))
+        .env("XDG_CACHE_HOME", &cache)
+        .env("PATH", "/usr/bin:/bin")
+        .output()
+        .unwrap();
+    let (stdout, err) = (String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    assert_eq!(out.status.code(), Some(0), "{err}");
+    let tables = bench_tables(&stdout);
+    assert_eq!(tables.len(), 1, "{stdout}");
+    assert!(tables[0].iter().filter(|l| l.ends_with("100.0000%")).count() == 5, "{stdout}");
+    // The primary rays hit the sphere as placed: radius 2 at 6 units fills about 20% of the
+    // frame (the file's unit sphere would fill 5%).
+    let primary = stdout.lines().find(|l| l.starts_with("primary:")).unwrap();
+    let hits: usize = primary.split(", ").nth(1).unwrap().split(' ').next().unwrap().parse().unwrap();
+    assert!(hits > 24 * 16 / 8, "{primary}");
+    // The OBJ written holds the moved vertices: none of the file's own (a unit sphere).
+    let obj = std::fs::read_to_string(keep.join("mesh.obj")).unwrap();
+    let radius = obj
+        .lines()
+        .filter_map(|l| l.strip_prefix("v "))
+        .map(|l| l.split_whitespace().map(|x| x.parse::<f32>().unwrap()).collect::<Vec<_>>())
+        .map(|v| ((v[0] - 0.5).powi(2) + v[1].powi(2) + v[2].powi(2)).sqrt())
+        .fold(0f32, f32::max);
+    assert!((radius - 2.0).abs() < 0.01, "the sphere's radius as written: {radius}");
 }
 
 #[test]

@@ -305,7 +305,10 @@ pub(crate) fn mesh_warnings(mesh: &TriangleMesh, degenerate: bool) -> Vec<String
         w.push("no triangles".into());
     }
     if stats.degenerate > 0 && degenerate {
-        w.push(format!("{} degenerate triangles (zero area or non-finite vertices) are never hit", stats.degenerate));
+        w.push(match stats.degenerate {
+            1 => "1 degenerate triangle (zero area or non-finite vertices) is never hit".to_string(),
+            n => format!("{n} degenerate triangles (zero area or non-finite vertices) are never hit"),
+        });
     }
     w
 }

@@ -585,3 +585,14 @@ fn what_tobj_reads_depends_on_where_a_model_ends_goes_through_tobj() {
     assert!(fast::read_geometry(later).is_some());
     assert_same(&by(later.as_bytes(), Reader::Parallel(None)), &by(later.as_bytes(), Reader::Tobj), later);
 }
+
+#[test]
+fn degenerate_triangles_are_counted_in_words_that_agree() {
+    let v = vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::X * 2.0];
+    // One degenerate triangle (three points on a line), then two.
+    let one = TriangleMesh::new(v.clone(), Vec::new(), vec![[0, 1, 2], [0, 1, 3]]);
+    assert_eq!(mesh_warnings(&one, true), ["1 degenerate triangle (zero area or non-finite vertices) is never hit"]);
+    let two = TriangleMesh::new(v, Vec::new(), vec![[0, 1, 2], [0, 1, 3], [1, 3, 0]]);
+    assert_eq!(mesh_warnings(&two, true), ["2 degenerate triangles (zero area or non-finite vertices) are never hit"]);
+    assert!(mesh_warnings(&two, false).is_empty());
+}
