@@ -5,11 +5,13 @@
 #
 # Usage: tools/embree3-bench/build.sh [OUTPUT]
 #   OUTPUT defaults to ~/.cache/isir/embree3-bench ($XDG_CACHE_HOME/isir/...), where
-#   `isir bench` looks for it; the script prints the path it built.
+#   `isir bench` looks for it; an existing directory (or a path ending in /) means
+#   OUTPUT/embree3-bench. The script prints the path it built.
 # Another Embree 3 install: EMBREE3_CFLAGS="-I.../include" EMBREE3_LIBS="-L.../lib -lembree3".
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 out=${1:-${XDG_CACHE_HOME:-$HOME/.cache}/isir/embree3-bench}
+if [ -d "$out" ] || [[ $out == */ ]]; then out=${out%/}/embree3-bench; fi
 cflags=${EMBREE3_CFLAGS:-}
 libs=${EMBREE3_LIBS:--lembree3}
 
@@ -33,5 +35,6 @@ trap 'rm -f "$tmp"' EXIT
 cc -std=c11 -O3 -march=native -fopenmp -Wall -Wextra $cflags -o "$tmp" \
   "$here/embree3_bench.c" "$here/../common/bench_common.c" $libs -lm
 chmod 755 "$tmp"
-mv -f "$tmp" "$out"
+# -T: never into a directory of that name under another name.
+mv -fT "$tmp" "$out"
 echo "$out"

@@ -8,15 +8,17 @@
 #
 # Usage: tools/embree4-bench/build.sh [OUTPUT]
 #   OUTPUT defaults to ~/.cache/isir/embree4-bench ($XDG_CACHE_HOME/isir/...), where
-#   `isir bench` looks for it; the script prints the path it built.
+#   `isir bench` looks for it; an existing directory (or a path ending in /) means
+#   OUTPUT/embree4-bench. The script prints the path it built.
 # The wheel and the libraries stay in ~/.cache/isir/embree4 (EMBREE4_CACHE overrides): the
-# binary finds them by its rpath, so it runs as long as that folder stays.
+# binary finds them by its rpath (absolute, also for a relative EMBREE4_CACHE), so it runs
+# from anywhere as long as that folder stays.
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 cache_root=${XDG_CACHE_HOME:-$HOME/.cache}/isir
 out=${1:-$cache_root/embree4-bench}
+if [ -d "$out" ] || [[ $out == */ ]]; then out=${out%/}/embree4-bench; fi
 cache=${EMBREE4_CACHE:-$cache_root/embree4}
-lib=$cache/lib
 
 # The one file downloaded: the CPython 3.11 build (any of the wheel's builds bundles the
 # same libraries, which do not depend on Python).
@@ -28,6 +30,9 @@ die() { echo "build.sh: $*" >&2; exit 1; }
 command -v cc >/dev/null || die "a C compiler (cc) is needed: apt-get install gcc"
 command -v python3 >/dev/null || die "python3 is needed (to download and unpack the wheel)"
 mkdir -p "$cache" "$(dirname "$out")"
+# Absolute: the binary's rpath is this folder, whatever directory it later runs from.
+cache=$(CDPATH= cd -- "$cache" && pwd)
+lib=$cache/lib
 tmpdir=$(mktemp -d "$cache/tmp.XXXXXX")
 trap 'rm -rf "$tmpdir"' EXIT
 
@@ -81,5 +86,6 @@ trap 'rm -rf "$tmpdir" "$bin"' EXIT
 cc -std=c11 -O3 -march=native -fopenmp -Wall -Wextra -I"$here/include" -o "$bin" \
   "$here/embree4_bench.c" "$here/../common/bench_common.c" "$so" -Wl,-rpath,"$lib" -lm
 chmod 755 "$bin"
-mv -f "$bin" "$out"
+# -T: never into a directory of that name under another name.
+mv -fT "$bin" "$out"
 echo "$out"

@@ -43,6 +43,8 @@ BUILTIN_MODELS = {
     "conference": MODELS_DIR / "conference" / "conference.obj.gz",
 }
 VARIANT = "llvm_ad_rgb"
+# The most threads `isir render --threads` takes (MAX_THREADS in crates/isir-cli/src/main.rs).
+ISIR_MAX_THREADS = 1024
 # Half size of the rectangle that stands for an infinite plane, in units of the scene's size
 # (the largest coordinate of its camera, lights and plane points): what lies further gets
 # no light worth a tile mean. Not much more: Mitsuba's rectangle loses float precision at
@@ -712,11 +714,20 @@ def write_side_by_side(a, b, path):
 # Driver
 
 
-def builtin_scene_names(isir):
-    r = subprocess.run([isir, "scenes"], capture_output=True, text=True)
+def builtin_scene_names(isir, shown):
+    """The names `isir scenes` lists; shown is the binary's path as the user gave it."""
+    try:
+        r = subprocess.run([isir, "scenes"], capture_output=True, text=True, errors="replace")
+    except OSError as e:
+        sys.exit(f"compare.py: error: `{shown} scenes` could not run: {e.strerror}")
     if r.returncode != 0:
-        sys.exit(f"compare.py: error: `{isir} scenes` failed: {r.stderr.strip()}")
-    return [line.split()[0] for line in r.stdout.splitlines() if line.strip()]
+        how = f"exit {r.returncode}" if r.returncode > 0 else f"killed by signal {-r.returncode}"
+        err = r.stderr.strip().splitlines()
+        sys.exit(f"compare.py: error: `{shown} scenes` failed ({how})" + (f": {err[-1]}" if err else ""))
+    names = [line.split()[0] for line in r.stdout.splitlines() if line.strip()]
+    if not names:
+        sys.exit(f"compare.py: error: `{shown} scenes` listed no scene: is it isir?")
+    return names
 
 
 def select_scenes(patterns, names):
@@ -725,6 +736,14 @@ def select_scenes(patterns, names):
     chosen = []
     for pat in patterns:
         if pat.endswith(".toml"):
+            # A scene file that is not there, or not TOML, is an error now rather than a
+            # skipped row at the end (as a misspelled built-in name is).
+            if not Path(pat).is_file():
+                sys.exit(f"compare.py: error: no scene file {pat}")
+            try:
+                load_toml(Path(pat))
+            except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as e:
+                sys.exit(f"compare.py: error: {pat}: {getattr(e, 'strerror', None) or e}")
             chosen.append(pat)
             continue
         hits = [n for n in names if fnmatch.fnmatchcase(n, pat)]
@@ -794,9 +813,24 @@ def fmt_times(ts):
 def main_compare(args) -> int:
     if tomllib is None:
         sys.exit("compare.py: error: needs Python 3.11 or newer (tomllib)")
-    isir = str(Path(args.isir).resolve()) if args.isir else str(REPO / "target" / "release" / "isir")
-    if not os.access(isir, os.X_OK):
-        sys.exit(f"compare.py: error: no isir binary at {isir}: run `cargo build --release` or give --isir PATH")
+    # Run by its absolute path (not resolved: messages show the path as given).
+    shown = args.isir or str(REPO / "target" / "release" / "isir")
+    isir = os.path.abspath(shown)
+    if not os.path.exists(isir):
+        sys.exit(f"compare.py: error: no isir binary at {shown}: run `cargo build --release` or give --isir PATH")
+    if not (os.path.isfile(isir) and os.access(isir, os.X_OK)):
+        sys.exit(f"compare.py: error: {shown} is not an executable file (--isir takes the isir binary)")
+    # --out: made (or checked) now, before any render, so that a bad path costs nothing.
+    keep = Path(args.out) if args.out else None
+    if keep:
+        if keep.exists() and not keep.is_dir():
+            sys.exit(f"compare.py: error: --out {args.out} exists and is not a directory")
+        try:
+            keep.mkdir(parents=True, exist_ok=True)
+        except OSError as e:
+            sys.exit(f"compare.py: error: --out {args.out}: cannot make the directory: {e.strerror}")
+        if not os.access(keep, os.W_OK | os.X_OK):
+            sys.exit(f"compare.py: error: --out {args.out}: the directory is not writable")
     try:
         import numpy  # noqa: F401
     except ModuleNotFoundError:
@@ -807,17 +841,14 @@ def main_compare(args) -> int:
         return 3
     setup_llvm_env()
 
-    names = builtin_scene_names(isir)
+    names = builtin_scene_names(isir, shown)
     patterns = [p for s in (args.scenes or []) for p in s.replace(",", " ").split()]
     if args.path_lambert and not patterns:
         patterns = ["tp6-*"]
     scenes = select_scenes(patterns, names)
 
-    work = Path(tempfile.mkdtemp(prefix="isir-mitsuba-"))
-    keep = Path(args.out) if args.out else None
-    if keep:
-        keep.mkdir(parents=True, exist_ok=True)
     rows, failures = [], 0
+    work = Path(tempfile.mkdtemp(prefix="isir-mitsuba-"))
     try:
         for name in scenes:
             try:
@@ -886,7 +917,7 @@ def print_table(rows, args):
         body.append([r["label"], r["tr"].isir_integrator, r["tr"].mitsuba_integrator, fmt_times(r["ti"]), fmt_times(r["tm"]), ratio,
                      r["summary"]])
     title = f"{args.width}×{args.height}, {args.spp} spp, {args.runs} timed run{'s' if args.runs > 1 else ''} each" + (
-        f", {args.threads} threads" if args.threads else "")
+        f", {args.threads} thread{'s' if args.threads > 1 else ''}" if args.threads else "")
     if args.markdown:
         print(f"{title}; whole-process wall time, median (range)\n")
         print("| " + " | ".join(head) + " |")
@@ -1016,16 +1047,20 @@ def self_test() -> int:
 
 def main() -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--scenes", action="append", help="built-in scene names or globs (comma or space separated; repeatable), or .toml files")
-    p.add_argument("--spp", type=int, default=64)
-    p.add_argument("--width", type=int, default=600)
-    p.add_argument("--height", type=int, default=400)
-    p.add_argument("--runs", type=int, default=3, help="timed runs of each engine, interleaved (after one untimed warm-up each)")
-    p.add_argument("--isir", help="the isir binary (default: target/release/isir)")
-    p.add_argument("--threads", type=int, help="threads for both engines (default: each engine's own, one per core)")
+    p.add_argument("--scenes", action="append", help="built-in scene names or globs (comma or space separated; repeatable), or .toml files "
+                   "(default: every scene `isir scenes` lists; with --path-lambert: tp6-*)")
+    p.add_argument("--spp", type=int, default=64, help="samples per pixel (default: %(default)s)")
+    p.add_argument("--width", type=int, default=600, help="image width in pixels (default: %(default)s)")
+    p.add_argument("--height", type=int, default=400, help="image height in pixels (default: %(default)s)")
+    p.add_argument("--runs", type=int, default=3,
+                   help="timed runs of each engine, interleaved (after one untimed warm-up each) (default: %(default)s)")
+    p.add_argument("--isir", help="the isir binary (default: target/release/isir in this repository)")
+    p.add_argument("--threads", type=int,
+                   help=f"threads for both engines, 1 to {ISIR_MAX_THREADS} (default: each engine's own, one per core)")
     p.add_argument("--markdown", action="store_true", help="print the table as Markdown")
     p.add_argument("--path-lambert", action="store_true", help="the TP6 scenes with both path tracers, Lambert materials")
-    p.add_argument("--out", help="keep the images, scene copies and isir|Mitsuba PNGs in this directory")
+    p.add_argument("--out", help="keep the images, scene copies and isir|Mitsuba PNGs in this directory, made if missing "
+                   "(default: keep nothing)")
     p.add_argument("--self-test", action="store_true", help="check the scene translation (no Mitsuba needed)")
     p.add_argument("--mitsuba-worker", nargs=2, metavar=("SCENE.json", "OUT.exr"), help=argparse.SUPPRESS)
     p.add_argument("--seed", type=int, default=0, help=argparse.SUPPRESS)
@@ -1033,8 +1068,8 @@ def main() -> int:
     for name in ("spp", "width", "height", "runs"):
         if getattr(args, name) < 1:
             p.error(f"--{name} must be at least 1")
-    if args.threads is not None and args.threads < 1:
-        p.error("--threads must be at least 1")
+    if args.threads is not None and not 1 <= args.threads <= ISIR_MAX_THREADS:
+        p.error(f"--threads must be from 1 to {ISIR_MAX_THREADS} (isir's limit), not {args.threads}")
     if args.self_test:
         return self_test()
     if args.mitsuba_worker:
