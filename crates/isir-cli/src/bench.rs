@@ -167,6 +167,7 @@ fn run_embree(
     let stderr = String::from_utf8_lossy(&out.stderr);
     let reason = stderr.lines().map(str::trim).find(|l| !l.is_empty()).map_or_else(|| format!("{}", out.status), str::to_string);
     anyhow::ensure!(out.status.success(), "{} failed: {reason}", bin.display());
+    anyhow::ensure!(hits.is_file(), "{} wrote no hit file: is it an Embree tool of tools/ (tools/README.md)?", bin.display());
     Ok(String::from_utf8_lossy(&out.stdout)
         .lines()
         .filter_map(|l| l.split_once(": ").map(|(k, v)| (k.to_string(), v.trim().to_string())))
@@ -199,11 +200,15 @@ fn check_bench_size(width: u32, height: u32) -> anyhow::Result<()> {
 }
 
 /// The benchmark's folder: `--keep`'s (created if need be, kept), or a temporary one that
-/// goes when this does, on an error or a panic too.
+/// goes when this does, on an error or a panic too, and on Ctrl-C or `kill` (SIGINT,
+/// SIGTERM, SIGHUP), where the process then ends with status 130.
 struct WorkDir {
     path: PathBuf,
     keep: bool,
 }
+
+/// The temporary folder a signal must remove, while there is one.
+static ON_SIGNAL: std::sync::Mutex<Option<PathBuf>> = std::sync::Mutex::new(None);
 
 impl WorkDir {
     fn new(keep: Option<&Path>) -> anyhow::Result<Self> {
@@ -215,7 +220,16 @@ impl WorkDir {
             }
             None => {
                 let t = tempfile::Builder::new().prefix("isir-bench-").tempdir().context("creating a temporary folder")?;
-                Ok(Self { path: t.keep(), keep: false })
+                let path = t.keep();
+                *ON_SIGNAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner) = Some(path.clone());
+                // Once per process (a second call fails: there is one bench per process).
+                let _ = ctrlc::set_handler(|| {
+                    if let Some(p) = ON_SIGNAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner).take() {
+                        std::fs::remove_dir_all(p).ok();
+                    }
+                    std::process::exit(130);
+                });
+                Ok(Self { path, keep: false })
             }
         }
     }
@@ -224,6 +238,7 @@ impl WorkDir {
 impl Drop for WorkDir {
     fn drop(&mut self) {
         if !self.keep {
+            ON_SIGNAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner).take();
             std::fs::remove_dir_all(&self.path).ok();
         }
     }
@@ -451,7 +466,13 @@ fn print_table(
             1 => format!("{:.2}", ratios[0]),
             _ => {
                 let (lo, hi) = ratios.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &r| (l.min(r), h.max(r)));
-                format!("{:.2} ({lo:.2}-{hi:.2})", median(ratios))
+                let m = median(ratios);
+                // A figure that does not move (the memory) has no range to show.
+                if format!("{lo:.2}") == format!("{hi:.2}") {
+                    format!("{m:.2}")
+                } else {
+                    format!("{m:.2} ({lo:.2}-{hi:.2})")
+                }
             }
         };
         let _ = writeln!(

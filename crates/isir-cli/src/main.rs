@@ -86,8 +86,14 @@ pub fn threads_phrase(n: usize) -> String {
 /// A mesh argument: a mesh file (OBJ, PLY or glTF), or the name of a built-in model.
 pub fn load_mesh(arg: &std::path::Path) -> anyhow::Result<isir::obj::LoadedMesh> {
     let name = arg.to_string_lossy();
-    if !arg.exists() && isir::scenes::builtin_models().contains(&name.as_ref()) {
-        return Ok(isir::scenes::load_builtin_model(&name)?);
+    if !arg.exists() {
+        if isir::scenes::builtin_models().contains(&name.as_ref()) {
+            return Ok(isir::scenes::load_builtin_model(&name)?);
+        }
+        // A built-in model's name in other letters (`bunny`): say which it is.
+        if let Some(model) = isir::scenes::builtin_models().iter().find(|m| m.eq_ignore_ascii_case(&name)) {
+            anyhow::bail!("{name}: no such file, and the built-in model is named '{model}'");
+        }
     }
     Ok(isir::io::mesh::load_mesh(arg)?)
 }

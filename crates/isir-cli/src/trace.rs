@@ -213,7 +213,8 @@ pub fn trace(a: TraceArgs) -> anyhow::Result<()> {
 
 fn trace_in_pool(a: &TraceArgs) -> anyhow::Result<()> {
     let loaded = load_mesh(&a.mesh)?;
-    warn_all(&loaded.warnings);
+    // Each warning names the file (the loader's do not).
+    warn_all(&loaded.warnings.iter().map(|w| format!("{}: {w}", a.mesh.display())).collect::<Vec<_>>());
     let mut mesh = loaded.mesh;
     if a.watertight {
         mesh.triangle_test = isir::triangle::TriangleTest::Watertight;

@@ -152,7 +152,7 @@ fn rays_and_trace_round_trip_and_reject_bad_files() {
     let (code, _, err) = isir(&["trace", "uvsphere", cut.to_str().unwrap()]);
     one_line_error(code, &err, "cut.rays");
     let (code, _, err) = isir(&["trace", "uvsphere", hits.to_str().unwrap()]);
-    one_line_error(code, &err, "magic");
+    one_line_error(code, &err, "a hit file, not a ray file");
     let (code, _, err) = isir(&["trace", "uvsphere", rays.to_str().unwrap(), "--packets", "--occluded"]);
     one_line_error(code, &err, "--packets");
 }
@@ -902,4 +902,57 @@ fn scene_files_render_check_and_report_errors_on_one_line() {
     let (code, _, err) = isir(&["check", scene.to_str().unwrap()]);
     one_line_error(code, &err, "two.toml:2:");
     assert!(err.contains("did you mean `sphere`?"), "{err}");
+}
+
+#[test]
+fn trace_names_its_mesh_in_warnings_and_a_built_in_model_in_other_letters() {
+    // One degenerate triangle: the warning names the file, in the singular.
+    let obj = tmp("one-degenerate.obj");
+    std::fs::write(&obj, "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\nf 1 2 3\nf 1 2 4\n").unwrap();
+    let rays = tmp("one-degenerate.rays");
+    let (code, _, err) = isir(&["rays", "tp4-sphere", "--kind", "primary", "-o", rays.to_str().unwrap(), "--width", "4", "--height", "2"]);
+    assert_eq!(code, 0, "{err}");
+    let (code, _, err) = isir(&["trace", obj.to_str().unwrap(), rays.to_str().unwrap(), "--repeat", "1"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains(&format!("{}: 1 degenerate triangle ", obj.display())) && err.contains("is never hit"), "{err}");
+    // `bunny` for `Bunny`: said which is meant.
+    let (code, _, err) = isir(&["trace", "bunny", rays.to_str().unwrap()]);
+    one_line_error(code, &err, "the built-in model is named 'Bunny'");
+}
+
+#[cfg(unix)]
+#[test]
+fn bench_says_when_an_embree_tool_writes_no_hits() {
+    // A program that succeeds without doing anything (`true`) given as the tool.
+    let cache = fresh_dir("bench-cache-true");
+    let (code, out, err) = bench_with_cache(&cache, &["--embree", "/bin/true"]);
+    one_line_error(code, &err, "wrote no hit file");
+    assert!(out.is_empty(), "half a table printed: {out}");
+}
+
+#[cfg(unix)]
+#[test]
+fn bench_stopped_by_a_signal_removes_its_temporary_files() {
+    let tmpdir = fresh_dir("bench-tmp-signal");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_isir"))
+        .args(["bench", "tp4-conference", "--no-embree", "--rounds", "5"])
+        .env("TMPDIR", &tmpdir)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    // Once it has written its first ray set, `kill` (SIGTERM) it.
+    let written =
+        |d: &std::path::Path| std::fs::read_dir(d).unwrap().flatten().any(|e| e.path().is_dir() && e.path().join("primary.rays").exists());
+    let start = std::time::Instant::now();
+    while !written(&tmpdir) {
+        assert!(start.elapsed().as_secs() < 60, "no ray file written");
+        assert!(child.try_wait().unwrap().is_none(), "bench ended before it was stopped");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let killed = Command::new("kill").arg(child.id().to_string()).status().unwrap();
+    assert!(killed.success());
+    let status = child.wait().unwrap();
+    assert_eq!(status.code(), Some(130), "{status:?}");
+    assert!(std::fs::read_dir(&tmpdir).unwrap().next().is_none(), "the temporary folder was left behind");
 }

@@ -99,7 +99,13 @@ fn read_records<T>(path: &Path, magic: &[u8; 8], record: usize, decode: impl Fn(
         }
     }
     if got < HEADER || &h[..8] != magic {
-        return Err(bad(format!("not a {} file (magic)", String::from_utf8_lossy(magic))));
+        let (want, other) = if magic == RAYS_MAGIC { ("ray", ("hit", HITS_MAGIC)) } else { ("hit", ("ray", RAYS_MAGIC)) };
+        let what = if got >= 8 && &h[..8] == other.1 {
+            format!("a {} file, not a {want} file", other.0)
+        } else {
+            format!("not a {want} file (it does not start with {}, docs/RAYS.md)", String::from_utf8_lossy(magic))
+        };
+        return Err(bad(what));
     }
     let version = u32::from_le_bytes(h[8..12].try_into().unwrap());
     if version != 1 {
@@ -112,8 +118,11 @@ fn read_records<T>(path: &Path, magic: &[u8; 8], record: usize, decode: impl Fn(
         let (whole, rest) = (body / record as u64, body % record as u64);
         let extra = if rest == 0 { String::new() } else { format!(" and {rest} bytes") };
         let claimed = size.map_or_else(|| "more than 2^64".to_string(), |s| s.to_string());
+        let records = |n: u64| if n == 1 { "1 record".to_string() } else { format!("{n} records") };
         return Err(bad(format!(
-            "header says {count} records ({claimed} bytes), the file holds {body} bytes after the header ({whole} records{extra})"
+            "header says {} ({claimed} bytes), the file holds {body} bytes after the header ({}{extra})",
+            records(count),
+            records(whole)
         )));
     }
     let count = usize::try_from(count).map_err(|_| bad(format!("{count} records do not fit in memory")))?;
@@ -413,7 +422,13 @@ mod tests {
         write_hits(&h, &hits).unwrap();
         assert_eq!(read_hits(&h).unwrap(), hits);
         // Wrong magic, truncated body.
-        assert!(read_rays(&h).unwrap_err().to_string().contains("magic"));
+        assert!(read_rays(&h).unwrap_err().to_string().contains("not a ray file"));
+        // A hit file given as rays, and the other way round: said so.
+        assert!(read_rays(&h).unwrap_err().to_string().contains("a hit file, not a ray file"), "{}", read_rays(&h).unwrap_err());
+        assert!(read_hits(&p).unwrap_err().to_string().contains("a ray file, not a hit file"), "{}", read_hits(&p).unwrap_err());
+        let garbage = dir.join("g.bin");
+        std::fs::write(&garbage, b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+        assert!(read_rays(&garbage).unwrap_err().to_string().contains("not a ray file (it does not start with ISIRRAYS"));
         let bytes = std::fs::read(&p).unwrap();
         std::fs::write(&p, &bytes[..bytes.len() - 5]).unwrap();
         assert!(read_rays(&p).unwrap_err().to_string().contains("header says 2"));
