@@ -287,6 +287,10 @@ fn direct_lanes(
                 quad_groups(scene, rays, hits, &light_sampler, shadow_rays, m as usize, samplers, counters, &mut li);
                 continue;
             }
+            if m < BATCH_FROM {
+                quad_few_lanes(scene, rays, hits, &light_sampler, m, samplers, counters, &mut li);
+                continue;
+            }
             // Each hit's shadow rays made where they are used. PERF: an array of the
             // sixteen hits' `ShadowRays` made first was 2% of tp6-matte-quad.
             let mut scratch = QuadScratch::EMPTY;
@@ -327,6 +331,48 @@ fn direct_lanes(
             None => scene.background,
             Some(_) => li[k],
         };
+    }
+}
+
+/// A quad light of fewer than [`BATCH_FROM`] samples (one to three) in every lane with a
+/// hit, sample by sample: each lane's sample drawn from its own generator, the sixteen set
+/// up together ([`LightLanes`]) and their shadow rays traced together, then each lane's
+/// average added to `li` as [`super::direct::one_light`] makes it (the same random numbers
+/// in the same order, the same floats).
+/// PERF: one lane at a time these were single shadow rays, the conference room at one
+/// light sample 1.5 times Mitsuba's time (see ARCHITECTURE.md, twenty-sixth session).
+#[allow(clippy::too_many_arguments)]
+fn quad_few_lanes(
+    scene: &Scene,
+    rays: &RayLanes,
+    hits: &[Option<Hit>; LANES],
+    light_sampler: &LightSampler,
+    m: u32,
+    samplers: &mut [Sampler],
+    counters: &mut RayCounters,
+    li: &mut [Color; LANES],
+) {
+    let n = samplers.len();
+    let mut sum = [Color::ZERO; LANES];
+    let mut xi = [Vec2::ZERO; BATCH];
+    let mut batch = LightLanes::EMPTY;
+    for _ in 0..m {
+        for k in (0..n).filter(|&k| hits[k].is_some()) {
+            xi[k] = samplers[k].next_2d();
+        }
+        batch.fill(light_sampler, hits, &xi);
+        let live = live_mask(&batch.live, n);
+        counters.shadow += u64::from(live.count_ones());
+        let blocked = scene.occluded_lanes(&batch.rays, live);
+        for k in lanes_of(live & !blocked) {
+            let Some(hit) = &hits[k] else { unreachable!("a live lane has a hit") };
+            let material = scene.material(hit);
+            let f = material.shade_any_direction(hit).unwrap_or_else(|| material.shade(&rays.ray(k), hit, &batch.sample(k)));
+            sum[k] += f * batch.radiance(k) * batch.cos[k];
+        }
+    }
+    for k in (0..n).filter(|&k| hits[k].is_some()) {
+        li[k] += sum[k] / m as f32;
     }
 }
 
