@@ -392,13 +392,15 @@ mod tests {
                 Integrator::DirectLighting { light_samples: 1 },
                 // Quad lights' samples two lanes to a stream (four to eight samples).
                 Integrator::DirectLighting { light_samples: 6 },
+                // Two lanes' whole batches to a stream (nine to sixteen samples).
+                Integrator::DirectLighting { light_samples: 11 },
                 Integrator::Whitted { light_samples: 3, max_depth: 4 },
                 Integrator::Path { light_samples: 3, max_depth: 4 },
             ];
             let scene = desc.build(crate::Accel::BvhSah).unwrap();
             scenes += 1;
             for (i, integrator) in integrators.into_iter().enumerate() {
-                let spp = [1, 3, 16, 5, 7, 2][(i + name.len()) % 6];
+                let spp = [1, 3, 16, 5, 7, 2, 4][(i + name.len()) % 7];
                 lanes_match_one_at_a_time(&desc, &scene, &integrator, Renderer::new(37, 23).spp(spp).seed(4), name);
             }
         }

@@ -291,6 +291,13 @@ fn direct_lanes(
                 quad_few_lanes(scene, rays, hits, &light_sampler, m, samplers, counters, &mut li);
                 continue;
             }
+            // Where two batches go as one stream (a scene of one mesh); elsewhere the
+            // pairs measured slower than lane by lane (tp3-quad-soft 0.37 -> 0.38 s).
+            if m <= BATCH as u32 && scene.pair_mesh().is_some() {
+                let shadow_rays = shadow_rays.get_or_insert_with(|| std::array::from_fn(|k| hits[k].as_ref().map(Hit::shadow_rays)));
+                quad_pairs(scene, rays, hits, &light_sampler, shadow_rays, m as usize, samplers, counters, &mut li);
+                continue;
+            }
             // Each hit's shadow rays made where they are used. PERF: an array of the
             // sixteen hits' `ShadowRays` made first was 2% of tp6-matte-quad.
             let mut scratch = QuadScratch::EMPTY;
@@ -429,6 +436,53 @@ fn quad_groups(
         for i in (0..4).filter(|&i| filled[i]) {
             let mut sum = Color::ZERO;
             batches[i].add_seen(&f[i], (live[i / 2] & !blocked[i / 2]) >> ((i % 2) * HALF), m, &mut sum);
+            li[first + i] += sum / m as f32;
+        }
+    }
+}
+
+/// A quad light of nine to sixteen samples in every lane with a hit, in a scene of one mesh: lanes two by two,
+/// each one's samples a whole batch set up and shaded as [`quad_light`] does
+/// ([`QuadBatch`]), the two batches traced together ([`Scene::occluded_lane_pair`]: one
+/// stream of up to thirty-two in a scene of one mesh), then each lane's sum added to `li`
+/// as [`quad_light`] makes it (the same floats).
+/// PERF: as for [`quad_groups`], two points' samples to a stream instead of one: the
+/// conference room at sixteen light samples (see ARCHITECTURE.md, twenty-sixth session).
+#[allow(clippy::too_many_arguments)]
+fn quad_pairs(
+    scene: &Scene,
+    rays: &RayLanes,
+    hits: &[Option<Hit>; LANES],
+    light_sampler: &LightSampler,
+    shadow_rays: &[Option<ShadowRays>; LANES],
+    m: usize,
+    samplers: &mut [Sampler],
+    counters: &mut RayCounters,
+    li: &mut [Color; LANES],
+) {
+    debug_assert!(BATCH / 2 < m && m <= BATCH);
+    let n = samplers.len();
+    // Reused from pair to pair: `fill` rewrites all sixteen lanes (more than eight samples).
+    let mut batches = [QuadBatch::EMPTY, QuadBatch::EMPTY];
+    let mut f = [[[0f32; BATCH]; 3]; 2];
+    for first in (0..n).step_by(2) {
+        let mut live = [0u32; 2];
+        let mut filled = [false; 2];
+        for (i, k) in (first..(first + 2).min(n)).enumerate() {
+            let (Some(hit), Some(sr)) = (&hits[k], &shadow_rays[k]) else { continue };
+            let mut xi = [Vec2::ZERO; BATCH];
+            samplers[k].fill_2d(&mut xi[..m]);
+            let batch = &mut batches[i];
+            batch.fill(light_sampler, sr, hit.normal, &xi, m);
+            live[i] = live_mask(&batch.live, m);
+            counters.shadow += u64::from(live[i].count_ones());
+            batch.shade_into(scene.material(hit), &rays.ray(k), hit, &mut f[i]);
+            filled[i] = true;
+        }
+        let blocked = if live == [0, 0] { [0, 0] } else { scene.occluded_lane_pair([&batches[0].rays, &batches[1].rays], live) };
+        for i in (0..2).filter(|&i| filled[i]) {
+            let mut sum = Color::ZERO;
+            batches[i].add_seen(&f[i], live[i] & !blocked[i], m, &mut sum);
             li[first + i] += sum / m as f32;
         }
     }

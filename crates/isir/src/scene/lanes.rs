@@ -296,10 +296,16 @@ impl Scene {
     /// share every node of the tree. Other scenes go batch by batch.
     #[must_use]
     pub fn occluded_lane_pair(&self, rays: [&RayLanes; 2], live: [u32; 2]) -> [u32; 2] {
-        if let Some(m) = self.only_mesh().filter(|_| self.top_level.is_none()) {
+        if let Some(m) = self.pair_mesh() {
             return m.occluded_lane_pair(rays, valid_masks(rays, live));
         }
         [self.occluded_lanes(rays[0], live[0]), self.occluded_lanes(rays[1], live[1])]
+    }
+
+    /// The mesh through which [`Scene::occluded_lane_pair`] traces two batches as one
+    /// stream: that of a scene of one mesh (and no top-level tree).
+    pub(crate) fn pair_mesh(&self) -> Option<&crate::geometry::TriangleMesh> {
+        self.only_mesh().filter(|_| self.top_level.is_none())
     }
 
     /// [`Scene::occluded_lanes`] compiled for AVX2: the lane loops eight lanes wide (no FMA
