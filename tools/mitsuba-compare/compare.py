@@ -820,17 +820,10 @@ def main_compare(args) -> int:
         sys.exit(f"compare.py: error: no isir binary at {shown}: run `cargo build --release` or give --isir PATH")
     if not (os.path.isfile(isir) and os.access(isir, os.X_OK)):
         sys.exit(f"compare.py: error: {shown} is not an executable file (--isir takes the isir binary)")
-    # --out: made (or checked) now, before any render, so that a bad path costs nothing.
+    # --out: checked now; made once the scenes are known to exist (before any render).
     keep = Path(args.out) if args.out else None
-    if keep:
-        if keep.exists() and not keep.is_dir():
-            sys.exit(f"compare.py: error: --out {args.out} exists and is not a directory")
-        try:
-            keep.mkdir(parents=True, exist_ok=True)
-        except OSError as e:
-            sys.exit(f"compare.py: error: --out {args.out}: cannot make the directory: {e.strerror}")
-        if not os.access(keep, os.W_OK | os.X_OK):
-            sys.exit(f"compare.py: error: --out {args.out}: the directory is not writable")
+    if keep and keep.exists() and not keep.is_dir():
+        sys.exit(f"compare.py: error: --out {args.out} exists and is not a directory")
     try:
         import numpy  # noqa: F401
     except ModuleNotFoundError:
@@ -846,6 +839,13 @@ def main_compare(args) -> int:
     if args.path_lambert and not patterns:
         patterns = ["tp6-*"]
     scenes = select_scenes(patterns, names)
+    if keep:
+        try:
+            keep.mkdir(parents=True, exist_ok=True)
+        except OSError as e:
+            sys.exit(f"compare.py: error: --out {args.out}: cannot make the directory: {e.strerror}")
+        if not os.access(keep, os.W_OK | os.X_OK):
+            sys.exit(f"compare.py: error: --out {args.out}: the directory is not writable")
 
     rows, failures = [], 0
     work = Path(tempfile.mkdtemp(prefix="isir-mitsuba-"))

@@ -162,7 +162,21 @@ fn run_embree(
     if occluded {
         cmd.arg("--occluded");
     }
-    let out = cmd.output().with_context(|| format!("running {}", bin.display()))?;
+    // A hit file of an earlier run (a reused `--keep` folder) must not pass for this one's.
+    match std::fs::remove_file(hits) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(e).with_context(|| format!("removing {}", hits.display())),
+        _ => {}
+    }
+    let child = cmd
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .with_context(|| format!("running {}", bin.display()))?;
+    // Known to the signal handler while it runs, so that stopping isir stops it too.
+    signal_state().child = Some(child.id());
+    let out = child.wait_with_output();
+    signal_state().child = None;
+    let out = out.with_context(|| format!("running {}", bin.display()))?;
     // Its first line of error (the problem), not the usage page that may follow.
     let stderr = String::from_utf8_lossy(&out.stderr);
     let reason = stderr.lines().map(str::trim).find(|l| !l.is_empty()).map_or_else(|| format!("{}", out.status), str::to_string);
@@ -186,10 +200,11 @@ pub fn run(a: BenchArgs) -> anyhow::Result<()> {
 /// traces' hit records (16 bytes) in memory at once, about 210 bytes a ray, 3.5 GB here.
 const MAX_BENCH_RAYS: u64 = 4096 * 4096;
 
-/// The ray sets' size: both sides at least 1, at most [`MAX_BENCH_RAYS`] rays.
+/// The ray sets' size: both sides from 1 to 16384, at most [`MAX_BENCH_RAYS`] rays.
 fn check_bench_size(width: u32, height: u32) -> anyhow::Result<()> {
     let n = u64::from(width) * u64::from(height);
     anyhow::ensure!(width > 0 && height > 0, "--width {width} --height {height}: both must be at least 1");
+    anyhow::ensure!(width <= 16384 && height <= 16384, "--width {width} --height {height}: each at most 16384");
     anyhow::ensure!(
         n <= MAX_BENCH_RAYS,
         "--width {width} --height {height}: {n} rays per set, more than the {MAX_BENCH_RAYS} (4096x4096) isir bench holds in \
@@ -201,34 +216,57 @@ fn check_bench_size(width: u32, height: u32) -> anyhow::Result<()> {
 
 /// The benchmark's folder: `--keep`'s (created if need be, kept), or a temporary one that
 /// goes when this does, on an error or a panic too, and on Ctrl-C or `kill` (SIGINT,
-/// SIGTERM, SIGHUP), where the process then ends with status 130.
+/// SIGTERM, SIGHUP), where the process then stops the Embree tool it runs, if any, and
+/// ends with status 130.
 struct WorkDir {
     path: PathBuf,
     keep: bool,
 }
 
-/// The temporary folder a signal must remove, while there is one.
-static ON_SIGNAL: std::sync::Mutex<Option<PathBuf>> = std::sync::Mutex::new(None);
+/// What a signal must undo: the temporary folder while there is one, the Embree tool
+/// while it runs.
+struct SignalState {
+    dir: Option<PathBuf>,
+    child: Option<u32>,
+}
+
+static SIGNAL_STATE: std::sync::Mutex<SignalState> = std::sync::Mutex::new(SignalState { dir: None, child: None });
+
+fn signal_state() -> std::sync::MutexGuard<'static, SignalState> {
+    SIGNAL_STATE.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+}
+
+/// On SIGINT, SIGTERM or SIGHUP (once per process; a second call fails, and there is one
+/// bench per process): the running tool stopped, the folder removed, status 130. The
+/// state stays locked to the end, so `WorkDir`'s removal and the tool's start wait.
+fn handle_signals() {
+    let _ = ctrlc::set_handler(|| {
+        let state = signal_state();
+        #[cfg(unix)]
+        if let Some(pid) = state.child.and_then(|p| i32::try_from(p).ok()) {
+            let _ = nix::sys::signal::kill(nix::unistd::Pid::from_raw(pid), nix::sys::signal::Signal::SIGTERM);
+        }
+        if let Some(dir) = &state.dir {
+            std::fs::remove_dir_all(dir).ok();
+        }
+        std::process::exit(130);
+    });
+}
 
 impl WorkDir {
     fn new(keep: Option<&Path>) -> anyhow::Result<Self> {
         match keep {
             Some(p) => {
-                anyhow::ensure!(!p.exists() || p.is_dir(), "--keep {}: not a directory", p.display());
+                anyhow::ensure!(p.is_dir() || std::fs::symlink_metadata(p).is_err(), "--keep {}: not a directory", p.display());
                 std::fs::create_dir_all(p).with_context(|| format!("--keep {}", p.display()))?;
+                handle_signals();
                 Ok(Self { path: p.to_path_buf(), keep: true })
             }
             None => {
                 let t = tempfile::Builder::new().prefix("isir-bench-").tempdir().context("creating a temporary folder")?;
                 let path = t.keep();
-                *ON_SIGNAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner) = Some(path.clone());
-                // Once per process (a second call fails: there is one bench per process).
-                let _ = ctrlc::set_handler(|| {
-                    if let Some(p) = ON_SIGNAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner).take() {
-                        std::fs::remove_dir_all(p).ok();
-                    }
-                    std::process::exit(130);
-                });
+                signal_state().dir = Some(path.clone());
+                handle_signals();
                 Ok(Self { path, keep: false })
             }
         }
@@ -238,7 +276,9 @@ impl WorkDir {
 impl Drop for WorkDir {
     fn drop(&mut self) {
         if !self.keep {
-            ON_SIGNAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner).take();
+            // Removed with the state locked: a signal meanwhile waits for the removal.
+            let mut state = signal_state();
+            state.dir = None;
             std::fs::remove_dir_all(&self.path).ok();
         }
     }
@@ -298,13 +338,33 @@ fn bench_in(
     dir: &Path,
     engines: &[Engine],
 ) -> anyhow::Result<String> {
+    // The files this run writes in `dir`: never one the scene reads (`--keep .` beside a
+    // scene's own `mesh.obj`, which the moved mesh would have replaced).
+    let inputs: Vec<PathBuf> = std::iter::once(PathBuf::from(name))
+        .chain(desc.objects.iter().filter_map(|o| match &o.shape {
+            isir::scenes::ShapeDesc::Mesh { source: MeshSource::File(p), .. }
+            | isir::scenes::ShapeDesc::MeshInstance { source: MeshSource::File(p), .. } => Some(p.clone()),
+            _ => None,
+        }))
+        .filter_map(|p| p.canonicalize().ok())
+        .collect();
+    let canonical_dir = dir.canonicalize().with_context(|| format!("{}", dir.display()))?;
+    let output = |file: String| -> anyhow::Result<PathBuf> {
+        anyhow::ensure!(
+            !inputs.contains(&canonical_dir.join(&file)),
+            "--keep {}: {file} there is one of the scene's own files: keep the bench's files in another folder",
+            dir.display()
+        );
+        Ok(dir.join(file))
+    };
+
     // ---- The scene's mesh is the one traced; the four ray sets ----
     let camera = desc.camera.build(a.width as f32 / a.height as f32);
     let mut sets = Vec::new();
     for kind in RayKind::ALL {
         let label = kind.name();
         let set = rays::generate(scene, &camera, a.width, a.height, kind, a.seed)?;
-        let path = dir.join(format!("{label}.rays"));
+        let path = output(format!("{label}.rays"))?;
         rays::write_rays(&path, &set)?;
         sets.push((label, kind, set, path));
     }
@@ -312,7 +372,7 @@ fn bench_in(
     // ---- The mesh as a plain OBJ file, for Embree ----
     let obj_path = match &source {
         Some(MeshSource::Builtin(model)) => {
-            let p = dir.join(format!("{model}.obj"));
+            let p = output(format!("{model}.obj"))?;
             std::fs::write(&p, isir::scenes::builtin_model_obj(model)?).with_context(|| format!("writing {}", p.display()))?;
             p
         }
@@ -321,7 +381,7 @@ fn bench_in(
             // Compressed, another format (PLY, glTF) or placed by a transform: the loaded
             // mesh, written as OBJ (floats in their shortest exact form, so both engines
             // trace the same triangles).
-            let p = dir.join("mesh.obj");
+            let p = output("isir-bench-mesh.obj".to_string())?;
             let mut text = String::with_capacity(mesh.vertices.len() * 40 + mesh.triangles.len() * 24);
             for v in &mesh.vertices {
                 text += &format!("v {:?} {:?} {:?}\n", v.x, v.y, v.z);
@@ -359,10 +419,10 @@ fn bench_in(
         for e in engines {
             let mut figures = Vec::new();
             for (label, kind, _, path) in &sets {
-                let hits = dir.join(format!("{label}.{}.hits", e.label));
+                let hits = output(format!("{label}.{}.hits", e.label))?;
                 figures.push(run_embree(&e.bin, [&obj_path, path, &hits], *kind == RayKind::Shadow, "single", a, threads)?);
             }
-            let hits = dir.join(format!("primary.{}-stream.hits", e.label));
+            let hits = output(format!("primary.{}-stream.hits", e.label))?;
             figures.push(run_embree(&e.bin, [&obj_path, &sets[0].3, &hits], false, "stream", a, threads)?);
             theirs.push(figures);
         }
@@ -376,9 +436,13 @@ fn bench_in(
     let mut report = String::new();
     let _ = writeln!(
         report,
-        "isir bench: {name}, {} triangles ({} degenerate), {}x{} rays, {}, isir simd {} ({}){}{}",
+        "isir bench: {name}, {} triangles ({} degenerate){}, {}x{} rays, {}, isir simd {} ({}){}{}",
         build.stats.triangles,
         build.stats.degenerate,
+        match scene.objects.iter().filter(|o| matches!(o.geometry, Geometry::Mesh(_) | Geometry::Instance(_))).count() {
+            0 | 1 => String::new(),
+            n => format!(" (the first of the scene's {n} meshes)"),
+        },
         a.width,
         a.height,
         threads_phrase(threads),

@@ -9,10 +9,11 @@ mod trace;
 
 use clap::{Parser, Subcommand};
 
-/// `println!` for the command's output: when standard output is a pipe whose reader has
-/// gone (`isir scenes | head -1`), the process ends quietly (status 0) instead of
-/// panicking as `println!` does; when it cannot be written otherwise (a full disk), it
-/// ends with one error line (status 1).
+/// `println!` for the command's output, which never panics and never stops the work:
+/// when standard output is a pipe whose reader has gone (`isir scenes | head -1`), the
+/// rest of the output is dropped and the command goes on (its files are still written;
+/// status 0); when it cannot be written otherwise (a full disk), the command goes on too
+/// and ends with one error line (status 1). `println!` panicked in both cases.
 macro_rules! out {
     ($($arg:tt)*) => {
         $crate::write_out(format_args!($($arg)*))
@@ -20,17 +21,32 @@ macro_rules! out {
 }
 pub(crate) use out;
 
+/// Standard output failed: 1 when its reader has gone, 2 when it failed otherwise.
+static STDOUT_FAILED: std::sync::atomic::AtomicU8 = std::sync::atomic::AtomicU8::new(0);
+/// The first other error, said at the end.
+static STDOUT_ERROR: std::sync::Mutex<Option<String>> = std::sync::Mutex::new(None);
+
 /// What [`out!`] does.
 pub fn write_out(args: std::fmt::Arguments) {
     use std::io::Write;
+    use std::sync::atomic::Ordering;
+    if STDOUT_FAILED.load(Ordering::Relaxed) != 0 {
+        return;
+    }
     let mut stdout = std::io::stdout().lock();
     if let Err(e) = stdout.write_fmt(args).and_then(|()| stdout.write_all(b"\n")) {
         if e.kind() == std::io::ErrorKind::BrokenPipe {
-            std::process::exit(0);
+            STDOUT_FAILED.store(1, Ordering::Relaxed);
+        } else {
+            STDOUT_FAILED.store(2, Ordering::Relaxed);
+            STDOUT_ERROR.lock().unwrap_or_else(std::sync::PoisonError::into_inner).get_or_insert(e.to_string());
         }
-        eprintln!("isir: error: writing the output: {e}");
-        std::process::exit(1);
     }
+}
+
+/// The error of standard output, other than a reader gone, if it failed.
+fn stdout_error() -> Option<String> {
+    STDOUT_ERROR.lock().unwrap_or_else(std::sync::PoisonError::into_inner).clone()
 }
 
 /// isir: a CPU ray tracer for the ISIR ray-tracing course.
@@ -189,6 +205,10 @@ fn main() {
     };
     if let Err(e) = run(cli) {
         eprintln!("isir: error: {}", error_line(&e));
+        std::process::exit(1);
+    }
+    if let Some(e) = stdout_error() {
+        eprintln!("isir: error: writing the output: {e}");
         std::process::exit(1);
     }
 }

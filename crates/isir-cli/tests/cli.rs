@@ -750,7 +750,7 @@ fn bench_traces_a_scene_files_placed_mesh_where_it_stands() {
     let hits: usize = primary.split(", ").nth(1).unwrap().split(' ').next().unwrap().parse().unwrap();
     assert!(hits > 24 * 16 / 8, "{primary}");
     // The OBJ written holds the moved vertices: none of the file's own (a unit sphere).
-    let obj = std::fs::read_to_string(keep.join("mesh.obj")).unwrap();
+    let obj = std::fs::read_to_string(keep.join("isir-bench-mesh.obj")).unwrap();
     let radius = obj
         .lines()
         .filter_map(|l| l.strip_prefix("v "))
@@ -955,4 +955,131 @@ fn bench_stopped_by_a_signal_removes_its_temporary_files() {
     let status = child.wait().unwrap();
     assert_eq!(status.code(), Some(130), "{status:?}");
     assert!(std::fs::read_dir(&tmpdir).unwrap().next().is_none(), "the temporary folder was left behind");
+}
+
+/// `isir ARGS` with its stdout a pipe closed at once (`isir ... | true`): the status and
+/// stderr.
+#[cfg(unix)]
+fn isir_into_closed_pipe(args: &[&str]) -> (i32, String) {
+    use std::io::Read;
+    let mut child = Command::new(env!("CARGO_BIN_EXE_isir"))
+        .args(args)
+        .current_dir(env!("CARGO_TARGET_TMPDIR"))
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let mut err = String::new();
+    child.stderr.take().unwrap().read_to_string(&mut err).unwrap();
+    (child.wait().unwrap().code().unwrap_or(-1), err)
+}
+
+/// A reader gone does not stop the work: `isir trace` still writes its hits, `isir render`
+/// its AOVs, after the lines they print first (found by review: the first version of
+/// `out!` ended the process there, status 0 and no files).
+#[cfg(unix)]
+#[test]
+fn output_into_a_closed_pipe_still_writes_every_file() {
+    let rays = tmp("pipe.rays");
+    let (code, _, err) = isir(&["rays", "tp4-sphere", "--kind", "primary", "-o", rays.to_str().unwrap(), "--width", "8", "--height", "4"]);
+    assert_eq!(code, 0, "{err}");
+    let hits = tmp("pipe.hits");
+    std::fs::remove_file(&hits).ok();
+    let (code, err) =
+        isir_into_closed_pipe(&["trace", "uvsphere", rays.to_str().unwrap(), "--hits", hits.to_str().unwrap(), "--repeat", "1"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(hits.exists() && !err.contains("panicked"), "{err}");
+    let png = tmp("pipe.png");
+    let depth = tmp("pipe.depth.png");
+    std::fs::remove_file(&depth).ok();
+    let (code, err) =
+        isir_into_closed_pipe(&["render", "tp4-sphere", "--width", "16", "--height", "12", "--aov", "depth", "-o", png.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    assert!(depth.exists() && !err.contains("panicked"), "{err}");
+}
+
+/// `--keep` naming the folder of a scene whose placed mesh is `mesh.obj`: the scene's file
+/// is left as it was (found by review: the moved mesh was written over it), and no output
+/// of bench may take the name of one of the scene's files.
+#[cfg(unix)]
+#[test]
+fn bench_keep_never_writes_over_the_scenes_own_files() {
+    let dir = fresh_dir("keep-own-mesh");
+    let original = std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/../isir/data/uvsphere.obj")).unwrap();
+    std::fs::write(dir.join("mesh.obj"), &original).unwrap();
+    std::fs::copy(concat!(env!("CARGO_MANIFEST_DIR"), "/../isir/data/uvsphere.mtl"), dir.join("uvsphere.mtl")).unwrap();
+    let scene = "[camera]\nposition = [0, 0, -6]\nlook_at = [0, 0, 0]\n\n[[objects]]\ntype = \"mesh\"\nfile = \"FILE\"\n\
+                 transform = { translate = [0.5, 0, 0], scale = 2 }\n\n[[lights]]\ntype = \"point\"\nposition = [0, 3, -5]\n";
+    std::fs::write(dir.join("s.toml"), scene.replace("FILE", "mesh.obj")).unwrap();
+    let bench = |dir: &std::path::Path, toml: &str| {
+        Command::new(env!("CARGO_BIN_EXE_isir"))
+            .args(["bench", toml, "--width", "8", "--height", "4", "--repeat", "1", "--threads", "1", "--no-embree", "--keep", "."])
+            .current_dir(dir)
+            .output()
+            .unwrap()
+    };
+    let out = bench(&dir, "s.toml");
+    assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(std::fs::read(dir.join("mesh.obj")).unwrap() == original, "the scene's mesh.obj was overwritten");
+    // A scene whose own mesh has the name of bench's output: refused, the file unchanged.
+    std::fs::write(dir.join("isir-bench-mesh.obj"), &original).unwrap();
+    std::fs::write(dir.join("t.toml"), scene.replace("FILE", "isir-bench-mesh.obj")).unwrap();
+    let out = bench(&dir, "t.toml");
+    one_line_error(out.status.code().unwrap_or(-1), &String::from_utf8_lossy(&out.stderr), "one of the scene's own files");
+    assert!(std::fs::read(dir.join("isir-bench-mesh.obj")).unwrap() == original);
+}
+
+/// A reused `--keep` folder: the hit files of an earlier run do not pass for this run's
+/// (found by review: a tool that writes nothing, `/bin/true`, got 100% agreement).
+#[cfg(unix)]
+#[test]
+fn bench_keep_reused_does_not_read_an_earlier_runs_hits() {
+    let cache = fresh_dir("keep-stale-cache");
+    let e3 = cache.join("isir").join("embree3-bench");
+    fake_embree(&e3);
+    let keep = fresh_dir("keep-stale");
+    let (code, _, err) = bench_with_cache(&cache, &["--keep", keep.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    std::fs::remove_file(&e3).unwrap();
+    let (code, _, err) = bench_with_cache(&cache, &["--keep", keep.to_str().unwrap(), "--embree", "/bin/true"]);
+    one_line_error(code, &err, "wrote no hit file");
+}
+
+/// Stopped by `kill`, bench stops the Embree tool it runs too (found by review: the tool
+/// ran on, its parent gone).
+#[cfg(unix)]
+#[test]
+fn bench_stopped_by_a_signal_stops_its_embree_tool() {
+    let dir = fresh_dir("bench-signal-child");
+    // A tool that writes its pid, then waits long.
+    let tool = dir.join("embree3-bench");
+    let pid_file = dir.join("tool.pid");
+    std::fs::write(&tool, format!("#!/bin/sh\necho $$ > '{}'\nexec sleep 60\n", pid_file.display())).unwrap();
+    {
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::set_permissions(&tool, std::fs::Permissions::from_mode(0o755)).unwrap();
+    }
+    let mut child = Command::new(env!("CARGO_BIN_EXE_isir"))
+        .args(["bench", "tp4-sphere", "--width", "8", "--height", "4", "--repeat", "1", "--threads", "1"])
+        .args(["--embree", tool.to_str().unwrap()])
+        .env("TMPDIR", &dir)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let start = std::time::Instant::now();
+    while !pid_file.exists() || std::fs::read_to_string(&pid_file).unwrap().trim().is_empty() {
+        assert!(start.elapsed().as_secs() < 60, "the tool did not start");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let tool_pid = std::fs::read_to_string(&pid_file).unwrap().trim().to_string();
+    assert!(Command::new("kill").arg(child.id().to_string()).status().unwrap().success());
+    assert_eq!(child.wait().unwrap().code(), Some(130));
+    // The tool is gone within a few seconds (`kill -0` fails once it is).
+    let start = std::time::Instant::now();
+    while Command::new("kill").args(["-0", &tool_pid]).stderr(std::process::Stdio::null()).status().unwrap().success() {
+        assert!(start.elapsed().as_secs() < 10, "the Embree tool still runs after bench was stopped");
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
 }

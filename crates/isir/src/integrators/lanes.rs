@@ -261,8 +261,10 @@ fn path_lanes(
 }
 
 /// [`super::direct::direct_lighting`] for every lane with a hit, light by light: a point light's shadow
-/// rays from all the lanes in one [`Scene::occluded_lanes`]; a quad light's lane by lane
-/// (each lane's samples are already traced together).
+/// rays from all the lanes in one [`Scene::occluded_lanes`]; a quad light's one to three
+/// samples likewise, sample by sample ([`quad_few_lanes`]); four to eight samples four lanes
+/// to a stream ([`quad_groups`]); nine to sixteen in a scene of one mesh two lanes to a
+/// stream ([`quad_pairs`]); otherwise lane by lane (each lane's samples traced together).
 fn direct_lanes(
     scene: &Scene,
     rays: &RayLanes,

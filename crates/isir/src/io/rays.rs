@@ -98,6 +98,9 @@ fn read_records<T>(path: &Path, magic: &[u8; 8], record: usize, decode: impl Fn(
             n => got += n,
         }
     }
+    if (8..HEADER).contains(&got) && &h[..8] == magic {
+        return Err(bad(format!("{got} bytes: shorter than the {HEADER}-byte header")));
+    }
     if got < HEADER || &h[..8] != magic {
         let (want, other) = if magic == RAYS_MAGIC { ("ray", ("hit", HITS_MAGIC)) } else { ("hit", ("ray", RAYS_MAGIC)) };
         let what = if got >= 8 && &h[..8] == other.1 {
@@ -426,6 +429,9 @@ mod tests {
         // A hit file given as rays, and the other way round: said so.
         assert!(read_rays(&h).unwrap_err().to_string().contains("a hit file, not a ray file"), "{}", read_rays(&h).unwrap_err());
         assert!(read_hits(&p).unwrap_err().to_string().contains("a ray file, not a hit file"), "{}", read_hits(&p).unwrap_err());
+        let short = dir.join("short.bin");
+        std::fs::write(&short, b"ISIRRAYS\x01\0\0\0").unwrap();
+        assert!(read_rays(&short).unwrap_err().to_string().contains("12 bytes: shorter than the 24-byte header"));
         let garbage = dir.join("g.bin");
         std::fs::write(&garbage, b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
         assert!(read_rays(&garbage).unwrap_err().to_string().contains("not a ray file (it does not start with ISIRRAYS"));
