@@ -263,8 +263,8 @@ fn path_lanes(
 /// [`super::direct::direct_lighting`] for every lane with a hit, light by light: a point light's shadow
 /// rays from all the lanes in one [`Scene::occluded_lanes`]; a quad light's one to three
 /// samples likewise, sample by sample ([`quad_few_lanes`]); four to eight samples four lanes
-/// to a stream ([`quad_groups`]); nine to sixteen in a scene of one mesh two lanes to a
-/// stream ([`quad_pairs`]); otherwise lane by lane (each lane's samples traced together).
+/// to a stream, and nine to sixteen in a scene of one mesh two lanes to a stream
+/// ([`quad_groups`]); otherwise lane by lane (each lane's samples traced together).
 fn direct_lanes(
     scene: &Scene,
     rays: &RayLanes,
@@ -286,7 +286,7 @@ fn direct_lanes(
             let m = light_samples.max(1);
             if (BATCH_FROM..=(BATCH / 2) as u32).contains(&m) {
                 let shadow_rays = shadow_rays.get_or_insert_with(|| std::array::from_fn(|k| hits[k].as_ref().map(Hit::shadow_rays)));
-                quad_groups(scene, rays, hits, &light_sampler, shadow_rays, m as usize, samplers, counters, &mut li);
+                quad_groups::<2>(scene, rays, hits, &light_sampler, shadow_rays, m as usize, samplers, counters, &mut li);
                 continue;
             }
             if m < BATCH_FROM {
@@ -297,7 +297,7 @@ fn direct_lanes(
             // pairs measured slower than lane by lane (tp3-quad-soft 0.37 -> 0.38 s).
             if m <= BATCH as u32 && scene.pair_mesh().is_some() {
                 let shadow_rays = shadow_rays.get_or_insert_with(|| std::array::from_fn(|k| hits[k].as_ref().map(Hit::shadow_rays)));
-                quad_pairs(scene, rays, hits, &light_sampler, shadow_rays, m as usize, samplers, counters, &mut li);
+                quad_groups::<1>(scene, rays, hits, &light_sampler, shadow_rays, m as usize, samplers, counters, &mut li);
                 continue;
             }
             // Each hit's shadow rays made where they are used. PERF: an array of the
@@ -385,17 +385,21 @@ fn quad_few_lanes(
     }
 }
 
-/// A quad light of `m` samples, at most eight, in every lane with a hit (the conference
-/// room's eight): lanes four by four, each one's samples set up and shaded as
-/// [`quad_light`] does ([`QuadBatch`]), two lanes' shadow rays to a batch of sixteen and
-/// the two batches traced together ([`Scene::occluded_lane_pair`]: one stream of up to
-/// thirty-two in a scene of one mesh), then each lane's sum added to `li` as
-/// [`quad_light`] makes it (the same floats).
+/// A quad light of `m` samples in every lane with a hit, `PER` lanes' samples to a batch
+/// of sixteen and two batches traced together ([`Scene::occluded_lane_pair`]: one stream
+/// of up to thirty-two in a scene of one mesh): at most eight samples four lanes to a
+/// group (`PER` 2, the conference room's eight), nine to sixteen two lanes to a group
+/// (`PER` 1, in a scene of one mesh). Each lane's samples are set up and shaded as
+/// [`quad_light`] does ([`QuadBatch`]) and its sum added to `li` as [`quad_light`] makes
+/// it (the same floats).
 /// PERF: the lanes' hits are samples of one pixel: their rays share most nodes, and the
-/// stream's per-node work is done once for all of them (two lanes to a stream instead of
-/// one: 6% faster; four instead of two: 4%).
+/// stream's per-node work is done once for all of them (eight samples: two lanes to a
+/// stream instead of one 6% faster, four instead of two 4%; sixteen samples, two lanes
+/// instead of one: the conference 0.97–0.98 of the time, twenty-sixth session). Elsewhere
+/// than in a scene of one mesh the pairs go batch by batch, and sixteen samples measured
+/// slower than lane by lane (tp3-quad-soft 0.37 -> 0.38 s).
 #[allow(clippy::too_many_arguments)]
-fn quad_groups(
+fn quad_groups<const PER: usize>(
     scene: &Scene,
     rays: &RayLanes,
     hits: &[Option<Hit>; LANES],
@@ -406,21 +410,23 @@ fn quad_groups(
     counters: &mut RayCounters,
     li: &mut [Color; LANES],
 ) {
-    const HALF: usize = BATCH / 2;
-    debug_assert!(m <= HALF);
+    // Each lane's share of a batch: eight lanes, or all sixteen.
+    let span = BATCH / PER;
+    debug_assert!((PER == 1 || PER == 2) && m <= span);
     let n = samplers.len();
-    // Reused from group to group: `fill` rewrites the eight lanes used, the others stay zero.
+    // Reused from group to group: `fill` rewrites the lanes used (eight or sixteen), the
+    // others stay zero.
     let mut batches = [QuadBatch::EMPTY, QuadBatch::EMPTY, QuadBatch::EMPTY, QuadBatch::EMPTY];
     let mut f = [[[0f32; BATCH]; 3]; 4];
     // Reused too: a group traces only its live lanes, which it writes; the other lanes may
     // hold an earlier group's rays. PERF: zeroed per group, the conference at 16 spp took
     // 1.548 s instead of 1.540.
     let mut both = [RayLanes::EMPTY, RayLanes::EMPTY];
-    for first in (0..n).step_by(4) {
-        // Lanes `first + i`: batch `i / 2`, its half `i % 2`.
+    for first in (0..n).step_by(2 * PER) {
+        // Lanes `first + i`: batch `i / PER`, its share `i % PER`.
         let mut live = [0u32; 2];
         let mut filled = [false; 4];
-        for (i, k) in (first..(first + 4).min(n)).enumerate() {
+        for (i, k) in (first..(first + 2 * PER).min(n)).enumerate() {
             let (Some(hit), Some(sr)) = (&hits[k], &shadow_rays[k]) else { continue };
             let mut xi = [Vec2::ZERO; BATCH];
             samplers[k].fill_2d(&mut xi[..m]);
@@ -428,63 +434,16 @@ fn quad_groups(
             batch.fill(light_sampler, sr, hit.normal, &xi, m);
             let lane_live = live_mask(&batch.live, m);
             counters.shadow += u64::from(lane_live.count_ones());
-            live[i / 2] |= lane_live << ((i % 2) * HALF);
-            // All eight lanes at once: those past `m` are not live, so never traced.
-            both[i / 2].copy_lanes((i % 2) * HALF, &batch.rays, HALF);
+            live[i / PER] |= lane_live << ((i % PER) * span);
+            // The whole share at once: lanes past `m` are not live, so never traced.
+            both[i / PER].copy_lanes((i % PER) * span, &batch.rays, span);
             batch.shade_into(scene.material(hit), &rays.ray(k), hit, &mut f[i]);
             filled[i] = true;
         }
         let blocked = if live == [0, 0] { [0, 0] } else { scene.occluded_lane_pair([&both[0], &both[1]], live) };
-        for i in (0..4).filter(|&i| filled[i]) {
+        for i in (0..2 * PER).filter(|&i| filled[i]) {
             let mut sum = Color::ZERO;
-            batches[i].add_seen(&f[i], (live[i / 2] & !blocked[i / 2]) >> ((i % 2) * HALF), m, &mut sum);
-            li[first + i] += sum / m as f32;
-        }
-    }
-}
-
-/// A quad light of nine to sixteen samples in every lane with a hit, in a scene of one mesh: lanes two by two,
-/// each one's samples a whole batch set up and shaded as [`quad_light`] does
-/// ([`QuadBatch`]), the two batches traced together ([`Scene::occluded_lane_pair`]: one
-/// stream of up to thirty-two in a scene of one mesh), then each lane's sum added to `li`
-/// as [`quad_light`] makes it (the same floats).
-/// PERF: as for [`quad_groups`], two points' samples to a stream instead of one: the
-/// conference room at sixteen light samples (see ARCHITECTURE.md, twenty-sixth session).
-#[allow(clippy::too_many_arguments)]
-fn quad_pairs(
-    scene: &Scene,
-    rays: &RayLanes,
-    hits: &[Option<Hit>; LANES],
-    light_sampler: &LightSampler,
-    shadow_rays: &[Option<ShadowRays>; LANES],
-    m: usize,
-    samplers: &mut [Sampler],
-    counters: &mut RayCounters,
-    li: &mut [Color; LANES],
-) {
-    debug_assert!(BATCH / 2 < m && m <= BATCH);
-    let n = samplers.len();
-    // Reused from pair to pair: `fill` rewrites all sixteen lanes (more than eight samples).
-    let mut batches = [QuadBatch::EMPTY, QuadBatch::EMPTY];
-    let mut f = [[[0f32; BATCH]; 3]; 2];
-    for first in (0..n).step_by(2) {
-        let mut live = [0u32; 2];
-        let mut filled = [false; 2];
-        for (i, k) in (first..(first + 2).min(n)).enumerate() {
-            let (Some(hit), Some(sr)) = (&hits[k], &shadow_rays[k]) else { continue };
-            let mut xi = [Vec2::ZERO; BATCH];
-            samplers[k].fill_2d(&mut xi[..m]);
-            let batch = &mut batches[i];
-            batch.fill(light_sampler, sr, hit.normal, &xi, m);
-            live[i] = live_mask(&batch.live, m);
-            counters.shadow += u64::from(live[i].count_ones());
-            batch.shade_into(scene.material(hit), &rays.ray(k), hit, &mut f[i]);
-            filled[i] = true;
-        }
-        let blocked = if live == [0, 0] { [0, 0] } else { scene.occluded_lane_pair([&batches[0].rays, &batches[1].rays], live) };
-        for i in (0..2).filter(|&i| filled[i]) {
-            let mut sum = Color::ZERO;
-            batches[i].add_seen(&f[i], live[i] & !blocked[i], m, &mut sum);
+            batches[i].add_seen(&f[i], (live[i / PER] & !blocked[i / PER]) >> ((i % PER) * span), m, &mut sum);
             li[first + i] += sum / m as f32;
         }
     }
