@@ -114,7 +114,12 @@ fn file_scene(path: &str) -> SceneDescription {
 /// Point the camera at the built scene's meshes, from the front and a little above, with a
 /// point light at the camera ([`CameraDesc::framing`]).
 fn frame(path: &str, desc: &mut SceneDescription, scene: &mut Scene) -> anyhow::Result<()> {
-    let b = scene.meshes().fold(isir::Aabb::EMPTY, |b, (_, m)| b.union(&m.aabb()));
+    // Every mesh, those placed by a glTF file's nodes (instances) too.
+    let b = scene.objects.iter().fold(isir::Aabb::EMPTY, |b, o| match &o.geometry {
+        isir::Geometry::Mesh(m) => b.union(&m.aabb()),
+        isir::Geometry::Instance(i) => b.union(&i.bounds()),
+        _ => b,
+    });
     let (camera, light) = CameraDesc::framing(&b).with_context(|| path.to_string())?;
     desc.camera = camera;
     desc.lights = vec![light.clone()];

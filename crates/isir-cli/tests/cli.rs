@@ -1083,3 +1083,31 @@ fn bench_stopped_by_a_signal_stops_its_embree_tool() {
         std::thread::sleep(std::time::Duration::from_millis(50));
     }
 }
+
+/// A glTF file whose one mesh two nodes place (instances) renders framed, both copies in
+/// view (found by review: the framing looked at plain meshes only and said there was no
+/// triangle to look at).
+#[test]
+fn a_gltf_of_instances_renders_framed() {
+    let gltf = tmp("two-nodes.gltf");
+    std::fs::write(
+        &gltf,
+        r#"{"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0,1]}],
+        "nodes":[{"mesh":0,"translation":[-1,0,0]},{"mesh":0,"translation":[1,0,0]}],
+        "meshes":[{"primitives":[{"attributes":{"POSITION":0},"indices":1}]}],
+        "buffers":[{"byteLength":44,"uri":"data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAAAAABAAIAAAA="}],
+        "bufferViews":[{"buffer":0,"byteOffset":0,"byteLength":36},{"buffer":0,"byteOffset":36,"byteLength":6}],
+        "accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]},
+        {"bufferView":1,"componentType":5123,"count":3,"type":"SCALAR"}]}"#,
+    )
+    .unwrap();
+    let png = tmp("two-nodes.png");
+    let (code, _, err) =
+        isir(&["render", gltf.to_str().unwrap(), "-o", png.to_str().unwrap(), "--width", "60", "--height", "40", "--spp", "1"]);
+    assert_eq!(code, 0, "{err}");
+    // Both triangles in the frame: lit pixels in the left and in the right half.
+    let img = image::open(&png).unwrap().to_rgb8();
+    let background = *img.get_pixel(0, 0);
+    let lit = |xs: std::ops::Range<u32>| xs.flat_map(|x| (0..40).map(move |y| (x, y))).any(|(x, y)| *img.get_pixel(x, y) != background);
+    assert!(lit(0..30) && lit(30..60), "both copies in view");
+}
