@@ -1101,6 +1101,23 @@ fn a_gltf_of_instances_renders_framed() {
         {"bufferView":1,"componentType":5123,"count":3,"type":"SCALAR"}]}"#,
     )
     .unwrap();
+    // isir bench traces both copies, as one mesh, the same triangles as the Embree stand-in.
+    #[cfg(unix)]
+    {
+        let cache = fresh_dir("bench-cache-two-nodes");
+        fake_embree(&cache.join("isir").join("embree3-bench"));
+        let out = Command::new(env!("CARGO_BIN_EXE_isir"))
+            .args(["bench", gltf.to_str().unwrap(), "--width", "24", "--height", "16", "--repeat", "1", "--threads", "1"])
+            .current_dir(env!("CARGO_TARGET_TMPDIR"))
+            .env("XDG_CACHE_HOME", &cache)
+            .env("PATH", "/usr/bin:/bin")
+            .output()
+            .unwrap();
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        assert_eq!(out.status.code(), Some(0), "{}", String::from_utf8_lossy(&out.stderr));
+        assert!(stdout.contains(", 2 triangles (0 degenerate) (the scene's 2 meshes as one),"), "{stdout}");
+        assert!(bench_tables(&stdout)[0].iter().filter(|l| l.ends_with("100.0000%")).count() == 5, "{stdout}");
+    }
     let png = tmp("two-nodes.png");
     let (code, _, err) =
         isir(&["render", gltf.to_str().unwrap(), "-o", png.to_str().unwrap(), "--width", "60", "--height", "40", "--spp", "1"]);
