@@ -21,24 +21,22 @@ macro_rules! out {
 }
 pub(crate) use out;
 
-/// Standard output failed: 1 when its reader has gone, 2 when it failed otherwise.
-static STDOUT_FAILED: std::sync::atomic::AtomicU8 = std::sync::atomic::AtomicU8::new(0);
-/// The first other error, said at the end.
+/// Standard output failed: nothing more is written to it.
+static STDOUT_FAILED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+/// Its error when that was not a reader gone, said at the end.
 static STDOUT_ERROR: std::sync::Mutex<Option<String>> = std::sync::Mutex::new(None);
 
 /// What [`out!`] does.
 pub fn write_out(args: std::fmt::Arguments) {
     use std::io::Write;
     use std::sync::atomic::Ordering;
-    if STDOUT_FAILED.load(Ordering::Relaxed) != 0 {
+    if STDOUT_FAILED.load(Ordering::Relaxed) {
         return;
     }
     let mut stdout = std::io::stdout().lock();
     if let Err(e) = stdout.write_fmt(args).and_then(|()| stdout.write_all(b"\n")) {
-        if e.kind() == std::io::ErrorKind::BrokenPipe {
-            STDOUT_FAILED.store(1, Ordering::Relaxed);
-        } else {
-            STDOUT_FAILED.store(2, Ordering::Relaxed);
+        STDOUT_FAILED.store(true, Ordering::Relaxed);
+        if e.kind() != std::io::ErrorKind::BrokenPipe {
             STDOUT_ERROR.lock().unwrap_or_else(std::sync::PoisonError::into_inner).get_or_insert(e.to_string());
         }
     }
