@@ -11,6 +11,7 @@
 pub mod bvh;
 mod memory;
 pub mod packet;
+pub mod shaft;
 pub mod triangle;
 pub mod wide;
 

@@ -280,13 +280,13 @@ fn direct_lanes(
     // theirs in `LightLanes`). PERF: made only in scenes with a quad light: the array of
     // `None`s built and copied per call was 1.4% of tp4-bunny.
     let mut shadow_rays: Option<[Option<ShadowRays>; LANES]> = None;
-    for light in &scene.lights {
+    for (index, light) in scene.lights.iter().enumerate() {
         let light_sampler = light.sampler();
         if let LightSampler::Quad { .. } = light_sampler {
             let m = light_samples.max(1);
             if (BATCH_FROM..=(BATCH / 2) as u32).contains(&m) {
                 let shadow_rays = shadow_rays.get_or_insert_with(|| std::array::from_fn(|k| hits[k].as_ref().map(Hit::shadow_rays)));
-                quad_groups::<2>(scene, rays, hits, &light_sampler, shadow_rays, m as usize, samplers, counters, &mut li);
+                quad_groups::<2>(scene, rays, hits, index, &light_sampler, shadow_rays, m as usize, samplers, counters, &mut li);
                 continue;
             }
             if m < BATCH_FROM {
@@ -297,7 +297,7 @@ fn direct_lanes(
             // pairs measured slower than lane by lane (tp3-quad-soft 0.37 -> 0.38 s).
             if m <= BATCH as u32 && scene.pair_mesh().is_some() {
                 let shadow_rays = shadow_rays.get_or_insert_with(|| std::array::from_fn(|k| hits[k].as_ref().map(Hit::shadow_rays)));
-                quad_groups::<1>(scene, rays, hits, &light_sampler, shadow_rays, m as usize, samplers, counters, &mut li);
+                quad_groups::<1>(scene, rays, hits, index, &light_sampler, shadow_rays, m as usize, samplers, counters, &mut li);
                 continue;
             }
             // Each hit's shadow rays made where they are used. PERF: an array of the
@@ -403,6 +403,7 @@ fn quad_groups<const PER: usize>(
     scene: &Scene,
     rays: &RayLanes,
     hits: &[Option<Hit>; LANES],
+    light: usize,
     light_sampler: &LightSampler,
     shadow_rays: &[Option<ShadowRays>; LANES],
     m: usize,
@@ -440,7 +441,7 @@ fn quad_groups<const PER: usize>(
             batch.shade_into(scene.material(hit), &rays.ray(k), hit, &mut f[i]);
             filled[i] = true;
         }
-        let blocked = if live == [0, 0] { [0, 0] } else { scene.occluded_lane_pair([&both[0], &both[1]], live) };
+        let blocked = if live == [0, 0] { [0, 0] } else { scene.occluded_pair_to_light(light, [&both[0], &both[1]], live) };
         for i in (0..2 * PER).filter(|&i| filled[i]) {
             let mut sum = Color::ZERO;
             batches[i].add_seen(&f[i], (live[i / PER] & !blocked[i / PER]) >> ((i % PER) * span), m, &mut sum);

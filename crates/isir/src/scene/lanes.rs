@@ -302,6 +302,44 @@ impl Scene {
         [self.occluded_lanes(rays[0], live[0]), self.occluded_lanes(rays[1], live[1])]
     }
 
+    /// [`Scene::occluded_lane_pair`] for shadow rays towards quad light `light` (from
+    /// surface points to points of that light, as [`spawn_ray_to`] makes them): a ray
+    /// whose origin's cell has a short list ([`ShaftGrid`]) is tested against that list,
+    /// the others are traced; the same answers.
+    ///
+    /// [`spawn_ray_to`]: crate::math::ray::spawn_ray_to
+    /// [`ShaftGrid`]: crate::accel::shaft::ShaftGrid
+    pub(crate) fn occluded_pair_to_light(&self, light: usize, rays: [&RayLanes; 2], live: [u32; 2]) -> [u32; 2] {
+        let Some((grid, bvh)) = self.shaft(light) else { return self.occluded_lane_pair(rays, live) };
+        let (mut rest, mut blocked) = (live, [0u32; 2]);
+        for b in 0..2 {
+            let lanes = rays[b];
+            let origin = |k: usize| [lanes.o[0][k].to_bits(), lanes.o[1][k].to_bits(), lanes.o[2][k].to_bits()];
+            // The lanes whose origin is `o`, bit for bit (a loop the compiler vectorises).
+            let from = |o: [u32; 3]| {
+                let mut m = 0u32;
+                for k in 0..LANES {
+                    let e = (lanes.o[0][k].to_bits() == o[0]) & (lanes.o[1][k].to_bits() == o[1]) & (lanes.o[2][k].to_bits() == o[2]);
+                    m |= u32::from(e) << k;
+                }
+                m
+            };
+            let mut todo = live[b];
+            // The lanes leaving from one origin (a hit's samples) at a time.
+            while todo != 0 {
+                let o = origin(todo.trailing_zeros() as usize);
+                let same = from(o) & todo;
+                todo &= !same;
+                let o = glam::Vec3::from_array(o.map(f32::from_bits));
+                let Some(list) = grid.cell_of(o).and_then(|c| grid.list(bvh, c)) else { continue };
+                rest[b] &= !same;
+                blocked[b] |= crate::accel::shaft::fan_occluded(list, o, lanes, same);
+            }
+        }
+        let traced = if rest == [0, 0] { [0, 0] } else { self.occluded_lane_pair(rays, rest) };
+        [blocked[0] | traced[0], blocked[1] | traced[1]]
+    }
+
     /// The mesh through which [`Scene::occluded_lane_pair`] traces two batches as one
     /// stream: that of a scene of one mesh (and no top-level tree).
     pub(crate) fn pair_mesh(&self) -> Option<&crate::geometry::TriangleMesh> {
@@ -554,6 +592,68 @@ mod tests {
                 }
             }
             assert!(blocked > 200 && open > 200, "{name}: {blocked} blocked, {open} open");
+        }
+    }
+
+    /// Shadow rays towards the conference room's light, made as the renderer makes them
+    /// (eight samples of a hit from its `ShadowRays`), two hits to a batch: the answers
+    /// from the light's cells are those of [`super::Scene::occluded`], and a light moved
+    /// without `prepare` is no longer answered from cells made for the old one.
+    #[test]
+    fn shadow_rays_towards_a_quad_light_answer_as_occluded() {
+        let desc = scenes::builtin("tp4-conference").unwrap();
+        let mut scene = desc.build(Accel::BvhSah).unwrap();
+        let camera = desc.camera.build(1.5);
+        let crate::Light::Quad { corner, u, v, .. } = scene.lights[0] else { panic!("the conference room has a quad light") };
+        let mut rng = Sampler::from_seed(21);
+        for moved in [false, true] {
+            if moved {
+                // Down through the table: the old cells would miss what now blocks.
+                let crate::Light::Quad { corner, .. } = &mut scene.lights[0] else { unreachable!() };
+                corner.y -= 450.0;
+            }
+            assert_eq!(scene.shaft(0).is_some(), !moved, "cells only for the light they were made for");
+            let corner = if moved { corner - Vec3::new(0.0, 450.0, 0.0) } else { corner };
+            let (mut listed, mut blocked, mut open) = (0, 0, 0);
+            for round in 0..400 {
+                let batches: [Vec<RaySegment>; 2] = std::array::from_fn(|_| {
+                    let mut rays = Vec::new();
+                    while rays.len() < LANES {
+                        let r = camera.generate_ray(rng.next_f32(), rng.next_f32());
+                        let Some(hit) = scene.intersect(&r, 0.0, f32::INFINITY) else { continue };
+                        let mut sr = hit.shadow_rays();
+                        for _ in 0..LANES / 2 {
+                            let target = corner + u * rng.next_f32() + v * rng.next_f32();
+                            if let Some((ray, t_max)) = sr.to(target) {
+                                rays.push(RaySegment { origin: ray.origin, t_min: 0.0, direction: ray.direction, t_max });
+                            }
+                        }
+                        rays.truncate(LANES);
+                    }
+                    rays
+                });
+                let lanes = [RayLanes::new(&batches[0]), RayLanes::new(&batches[1])];
+                let live = if round % 2 == 0 {
+                    [0xffff, 0xffff]
+                } else {
+                    [rng.next_f32().to_bits() & 0xffff, rng.next_f32().to_bits() >> 9 & 0xffff]
+                };
+                let got = scene.occluded_pair_to_light(0, [&lanes[0], &lanes[1]], live);
+                for b in 0..2 {
+                    for (k, r) in batches[b].iter().enumerate() {
+                        let expected = live[b] & (1 << k) != 0 && scene.occluded(&r.ray(), r.t_min, r.t_max);
+                        assert_eq!(got[b] & (1 << k) != 0, expected, "moved {moved}, round {round}, batch {b}, lane {k}: {r:?}");
+                        if live[b] & (1 << k) != 0 {
+                            *(if expected { &mut blocked } else { &mut open }) += 1;
+                            if let Some((grid, bvh)) = scene.shaft(0) {
+                                listed += usize::from(grid.cell_of(r.origin).and_then(|c| grid.list(bvh, c)).is_some());
+                            }
+                        }
+                    }
+                }
+            }
+            assert!(blocked > 1000 && open > 1000, "moved {moved}: {blocked} blocked, {open} open");
+            assert!(moved || listed > 2000, "{listed} rays answered from the cells");
         }
     }
 

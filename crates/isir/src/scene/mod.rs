@@ -6,8 +6,9 @@
 //! scene is built from a [`crate::SceneDescription`] ([`crate::scenes`]).
 
 use crate::accel::bvh::{Bvh, BvhQuality};
-use crate::accel::wide::TraversalStats;
-use crate::geometry::{Geometry, Hit, TriangleMesh};
+use crate::accel::shaft::{ShaftGrid, MAX_CELLS};
+use crate::accel::wide::{TraversalStats, WideBvh};
+use crate::geometry::{Geometry, Hit, MeshAccel, TriangleMesh};
 use crate::lights::Light;
 use crate::materials::{Material, MaterialId};
 use crate::math::aabb::Aabb;
@@ -51,6 +52,9 @@ pub struct Scene {
     /// Spheres and planes only: their tests side by side (built by [`Scene::new`] and
     /// [`Scene::prepare`]; ignored once the object count has changed).
     flat: Option<FlatObjects>,
+    /// Per light: a quad light's shadow-ray cells in a scene of one mesh (built by
+    /// [`Scene::prepare`], with the light they were made for), else `None`.
+    shafts: Vec<Option<(Light, ShaftGrid)>>,
 }
 
 /// The scene's own BVH (the SAH build of [`crate::accel::bvh`] over the objects' world
@@ -80,7 +84,8 @@ impl Scene {
     /// background, prepared for tracing ([`Scene::prepare`]).
     #[must_use]
     pub fn new(objects: Vec<Object>, materials: Vec<Material>, lights: Vec<Light>, background: Color) -> Scene {
-        let mut scene = Scene { objects, materials, lights, background, warnings: Vec::new(), top_level: None, flat: None };
+        let mut scene =
+            Scene { objects, materials, lights, background, warnings: Vec::new(), top_level: None, flat: None, shafts: Vec::new() };
         scene.prepare();
         scene
     }
@@ -97,6 +102,32 @@ impl Scene {
         } else {
             self.flat = FlatObjects::new(&self.objects);
         }
+        let quads = self.lights.iter().filter(|l| l.is_surface()).count();
+        self.shafts = match self.pair_mesh() {
+            Some(mesh) => self
+                .lights
+                .iter()
+                .map(|light| match *light {
+                    Light::Quad { corner, u, v, .. } => {
+                        ShaftGrid::new(&mesh.aabb(), corner, u, v, MAX_CELLS / quads).map(|g| (light.clone(), g))
+                    }
+                    Light::Point { .. } => None,
+                })
+                .collect(),
+            None => Vec::new(),
+        };
+    }
+
+    /// The shadow-ray cells of quad light `light` and the tree their lists come from: in
+    /// a scene of one mesh traced by its wide BVH, while the light and the mesh's box are
+    /// those the cells were made for (a scene changed without [`Scene::prepare`] traces
+    /// every ray).
+    #[inline]
+    pub(crate) fn shaft(&self, light: usize) -> Option<(&ShaftGrid, &WideBvh)> {
+        let (made_for, grid) = self.shafts.get(light)?.as_ref()?;
+        let mesh = self.pair_mesh()?;
+        let MeshAccel::Wide(bvh) = mesh.accel() else { return None };
+        (self.lights.get(light) == Some(made_for) && grid.bounds() == &mesh.aabb()).then_some((grid, bvh))
     }
 
     /// The flat form of the objects, unless their count has changed since it was built.

@@ -438,3 +438,17 @@ pub(crate) fn leaf_blocks(code: u32) -> std::ops::Range<usize> {
     let first = (code & FIRST_MASK) as usize;
     first..first + ((code >> BLOCKS_SHIFT) & 0x7) as usize + 1
 }
+
+/// True when a triangle of block `tri` meets `ray` in `[t_min, t_max)`: the tree's own
+/// triangle test (the same floats on every path).
+#[inline(always)]
+pub(crate) fn block_any_hit(tri: &Tri4, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        kernels::tri4_sse_from::<true>(tri, ray.origin, ray.direction, t_min, t_max).is_some()
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        kernels::tri4_scalar(tri, ray, t_min, t_max).is_some()
+    }
+}

@@ -1,0 +1,523 @@
+//! Shadow rays towards one quad light, answered from short lists of triangles: a light
+//! buffer (Haines and Greenberg 1986) made of shafts (Haines and Wallace 1994).
+//!
+//! The mesh's box is cut into cubic cells. A shadow ray from a point of a cell to a point
+//! of the light stays inside the *shaft* of that cell: the convex hull of the cell and the
+//! light. A triangle that lies outside the shaft can never block such a ray, so the ray
+//! only needs the triangles that meet the shaft — often none or a handful, against a walk
+//! down the whole tree. The first ray from a cell finds its list by walking the tree with
+//! the shaft instead of a ray ([`ShaftGrid::list`]); a cell whose shaft meets more than
+//! [`MAX_TRIANGLES`] triangles is marked so, and its rays take the tree.
+//!
+//! The lists hold copies of the tree's own blocks' triangles, and a ray is tested against
+//! them with the tree's own triangle test, so a ray gets exactly the tree's answer from
+//! every triangle it is tested against. A triangle is left out only when a plane separates
+//! it from the shaft with room to spare: more than the rounding of the triangle test
+//! could ever bridge (see [`ShaftGrid::triangle_margin`]).
+
+use super::wide::{block_any_hit, leaf_blocks, Tri4, WideBvh, EMPTY, LEAF};
+use crate::math::aabb::Aabb;
+use crate::math::ray::{lanes_of, Ray, RayLanes, LANES};
+use glam::Vec3;
+use std::sync::OnceLock;
+
+/// Cells along the longest side of the mesh's box.
+pub const CELLS_ALONG: usize = 128;
+/// A cell whose shaft meets more triangles than this takes the tree.
+/// PERF: the conference room at 32 spp, 128 cells along: 12, 24 and 48 triangles 4.64,
+/// 4.70 and 5.02 s of CPU (96 cells along and 16 triangles 4.67; 256 and 24, 4.93).
+pub const MAX_TRIANGLES: usize = 24;
+/// At most this many cells in a scene, shared by its quad lights (24 bytes each until
+/// asked for): 12 MB.
+pub const MAX_CELLS: usize = 1 << 19;
+/// How far short of the light a shadow ray stops: `t_max` is `1 - SHADOW_EPSILON` of the
+/// distance ([`crate::math::ray::spawn_ray_to`]).
+const SHADOW_EPSILON: f32 = 1e-4;
+
+/// The cells of one mesh towards one quad light, each cell's list made when first asked.
+#[derive(Clone, Debug)]
+pub struct ShaftGrid {
+    /// The mesh's box the grid covers.
+    bounds: Aabb,
+    /// The grid's lowest corner.
+    min: Vec3,
+    /// A cell's side.
+    cell: f32,
+    /// Its inverse.
+    inv_cell: f32,
+    /// Cells along x, y and z.
+    dims: [usize; 3],
+    /// The light's four corners.
+    quad: [Vec3; 4],
+    /// The largest coordinate magnitude of the mesh, the light and the grid: the scale of
+    /// the triangle test's rounding.
+    scale: f32,
+    /// Each cell's triangles, or `None` when its shaft meets too many.
+    cells: Box<[OnceLock<CellList>]>,
+}
+
+/// A cell's triangles, in blocks as the tree holds them; `None` when its shaft meets more
+/// than [`MAX_TRIANGLES`].
+type CellList = Option<Box<[Tri4]>>;
+
+/// A plane `n·x = d` with unit `n`; the shaft lies on the side `n·x <= d`.
+type HalfSpace = (Vec3, f32);
+
+impl ShaftGrid {
+    /// The grid of a mesh whose triangles lie in `bounds`, towards the light whose points
+    /// are `corner + s·u + t·v` (`s`, `t` in `[0, 1]`), in at most `max_cells` cells (the
+    /// scene's share of [`MAX_CELLS`] for this light). `None` when the box is empty or
+    /// anything is not finite.
+    #[must_use]
+    pub fn new(bounds: &Aabb, corner: Vec3, u: Vec3, v: Vec3, max_cells: usize) -> Option<ShaftGrid> {
+        let quad = [corner, corner + u, corner + v, corner + u + v];
+        if !(bounds.min.is_finite() && bounds.max.is_finite() && quad.iter().all(|q| q.is_finite())) {
+            return None;
+        }
+        let extent = bounds.max - bounds.min;
+        if extent.min_element() < 0.0 || extent.max_element() <= 0.0 {
+            return None;
+        }
+        // Cells of side `longest / CELLS_ALONG`, or larger where that would make more than
+        // `max_cells` (a mesh whose box is nearly a cube).
+        let volume = extent.max(Vec3::splat(extent.max_element() / CELLS_ALONG as f32));
+        let mut cell = (extent.max_element() / CELLS_ALONG as f32).max((volume.x * volume.y * volume.z / max_cells.max(1) as f32).cbrt());
+        let dims_of = |cell: f32| [0, 1, 2].map(|a| ((extent[a] / cell).floor() as usize + 1).min(CELLS_ALONG));
+        // The cells of the box's far faces can overshoot the count: larger cells then.
+        while dims_of(cell).iter().product::<usize>() > max_cells.max(1) {
+            cell *= 1.05;
+        }
+        let dims = dims_of(cell);
+        let scale = quad.iter().chain([&bounds.min, &bounds.max]).fold(0f32, |m, p| m.max(p.abs().max_element()));
+        let count = dims[0] * dims[1] * dims[2];
+        Some(ShaftGrid {
+            bounds: *bounds,
+            min: bounds.min,
+            cell,
+            inv_cell: 1.0 / cell,
+            dims,
+            quad,
+            scale,
+            cells: (0..count).map(|_| OnceLock::new()).collect(),
+        })
+    }
+
+    /// The box the grid covers (the mesh's, when made).
+    #[must_use]
+    pub fn bounds(&self) -> &Aabb {
+        &self.bounds
+    }
+
+    /// The cell holding point `p`, or `None` outside the grid (or not finite).
+    #[inline(always)]
+    #[must_use]
+    pub fn cell_of(&self, p: Vec3) -> Option<usize> {
+        // A point within rounding of a cell's face may be given the cell beside it: the
+        // shafts' slack covers that much.
+        let c = (p - self.min) * self.inv_cell;
+        let mut index = 0;
+        for a in (0..3).rev() {
+            // Not `c >= 0 && c < dims` negated: NaN fails both.
+            if !(c[a] >= 0.0 && c[a] < self.dims[a] as f32) {
+                return None;
+            }
+            index = index * self.dims[a] + c[a] as usize;
+        }
+        Some(index)
+    }
+
+    /// The box of cell `index`.
+    fn cell_box(&self, index: usize) -> (Vec3, Vec3) {
+        let (x, y, z) = (index % self.dims[0], index / self.dims[0] % self.dims[1], index / (self.dims[0] * self.dims[1]));
+        let lo = self.min + Vec3::new(x as f32, y as f32, z as f32) * self.cell;
+        (lo, lo + Vec3::splat(self.cell))
+    }
+
+    /// The triangles of `bvh` that a shadow ray from a point of cell `index` to the light
+    /// may meet, or `None` when there are more than [`MAX_TRIANGLES`] (then trace the ray
+    /// through the tree). Made on the first call for the cell; the same list on every call
+    /// and every thread.
+    #[must_use]
+    pub fn list<'a>(&'a self, bvh: &WideBvh, index: usize) -> Option<&'a [Tri4]> {
+        self.cells[index].get_or_init(|| self.make_list(bvh, index)).as_deref()
+    }
+
+    /// How far a triangle must lie from a shaft for no shadow ray in the shaft to meet it
+    /// in the triangle test's floats: Möller–Trumbore's `u`, `v` and `t` are products of
+    /// the ray's offset from `v0` (at most twice [`ShaftGrid::scale`] in each coordinate),
+    /// the edges and the direction, divided by the determinant, so their rounding, as a
+    /// distance in the triangle's plane or along the ray, is a few units in the last place
+    /// of `|s|·|e1|·|e2| / |e1 × e2|` (pbrt-v4 §6.8's bound is eight). Given 64 of those
+    /// units, and infinite (the triangle is always kept) when the edges' cross product is
+    /// zero in floats.
+    fn triangle_margin(&self, e1: Vec3, e2: Vec3) -> f32 {
+        let area2 = e1.cross(e2).length();
+        let s = 4.0 * self.scale;
+        let m = 64.0 * f32::EPSILON * s * e1.length() * e2.length() / area2;
+        if m.is_finite() {
+            m
+        } else {
+            f32::INFINITY
+        }
+    }
+
+    /// Walks `bvh` with the shaft of cell `index` and gathers the triangles it meets.
+    fn make_list(&self, bvh: &WideBvh, index: usize) -> CellList {
+        if bvh.watertight || bvh.root == EMPTY {
+            return None;
+        }
+        let (lo, hi) = self.cell_box(index);
+        // Where the shadow rays stop: `(1 - ε)·q + ε·o` for `q` on the light and `o` in the
+        // cell, within `ε·|o - centre|` of `(1 - ε)·q + ε·centre`.
+        let centre = (lo + hi) * 0.5;
+        let ends = self.quad.map(|q| q * (1.0 - SHADOW_EPSILON) + centre * SHADOW_EPSILON);
+        let mut points = [Vec3::ZERO; 12];
+        for (i, p) in points.iter_mut().take(8).enumerate() {
+            *p =
+                Vec3::new(if i & 1 == 0 { lo.x } else { hi.x }, if i & 2 == 0 { lo.y } else { hi.y }, if i & 4 == 0 { lo.z } else { hi.z });
+        }
+        points[8..].copy_from_slice(&ends);
+        // Slack for everything approximated: the ends' spread, the rounding of the cell's
+        // and the shaft's own arithmetic (a few units in the last place of the scale).
+        let slack = SHADOW_EPSILON * (hi - lo).length() + 64.0 * f32::EPSILON * self.scale;
+        let planes = hull_planes(&points, slack);
+        let (pmin, pmax) = points.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(a, b), p| (a.min(*p), b.max(*p)));
+        // A box (or triangle) whose corners all lie beyond one plane by `m` is out.
+        let outside = |bmin: Vec3, bmax: Vec3, m: f32| -> bool {
+            if (bmin - pmax).max_element() > m || (pmin - bmax).max_element() > m {
+                return true;
+            }
+            planes.iter().any(|&(n, d)| {
+                // The box's corner nearest the inside of the plane.
+                let near = Vec3::select(n.cmpge(Vec3::ZERO), bmin, bmax);
+                n.dot(near) - d > m
+            })
+        };
+        let mut found: Vec<(usize, usize)> = Vec::new();
+        let mut stack = vec![bvh.root];
+        while let Some(code) = stack.pop() {
+            if code & LEAF != 0 {
+                for b in leaf_blocks(code) {
+                    let t = &bvh.tris[b];
+                    for lane in (0..4).filter(|&l| t.prim[l] != EMPTY) {
+                        let v0 = Vec3::new(t.v0[0][lane], t.v0[1][lane], t.v0[2][lane]);
+                        let e1 = Vec3::new(t.e1[0][lane], t.e1[1][lane], t.e1[2][lane]);
+                        let e2 = Vec3::new(t.e2[0][lane], t.e2[1][lane], t.e2[2][lane]);
+                        let m = slack + self.triangle_margin(e1, e2);
+                        let (v1, v2) = (v0 + e1, v0 + e2);
+                        let tri_out = m.is_finite() && {
+                            let (tmin, tmax) = (v0.min(v1).min(v2), v0.max(v1).max(v2));
+                            outside(tmin, tmax, m) || planes.iter().any(|&(n, d)| [v0, v1, v2].iter().all(|p| n.dot(*p) - d > m)) || {
+                                // The triangle's own plane, the shaft all on one side.
+                                let n = e1.cross(e2).normalize_or_zero();
+                                let d = n.dot(v0);
+                                n != Vec3::ZERO && (points.iter().all(|p| n.dot(*p) - d > m) || points.iter().all(|p| n.dot(*p) - d < -m))
+                            }
+                        };
+                        if !tri_out {
+                            if found.len() == MAX_TRIANGLES {
+                                return None;
+                            }
+                            found.push((b, lane));
+                        }
+                    }
+                }
+                continue;
+            }
+            // Inner-node codes are byte offsets of nodes.
+            let node = &bvh.nodes[code as usize / std::mem::size_of::<super::wide::Node8>()];
+            for lane in 0..8 {
+                let child = node.child[lane];
+                if child == EMPTY {
+                    continue;
+                }
+                let bmin = Vec3::new(node.lo[0][lane], node.lo[1][lane], node.lo[2][lane]);
+                let bmax = Vec3::new(node.hi[0][lane], node.hi[1][lane], node.hi[2][lane]);
+                // A box out by the slack is never entered by a ray of the shaft (the
+                // tree's box test widens by a few units in the last place), so the tree
+                // never tests its triangles either, whatever their margins.
+                if !outside(bmin, bmax, slack) {
+                    stack.push(child);
+                }
+            }
+        }
+        let mut blocks = Vec::with_capacity(found.len().div_ceil(4));
+        for group in found.chunks(4) {
+            let mut t = Tri4 { v0: [[f32::NAN; 4]; 3], e1: [[f32::NAN; 4]; 3], e2: [[f32::NAN; 4]; 3], prim: [EMPTY; 4] };
+            for (lane, &(b, l)) in group.iter().enumerate() {
+                let src = &bvh.tris[b];
+                for a in 0..3 {
+                    t.v0[a][lane] = src.v0[a][l];
+                    t.e1[a][lane] = src.e1[a][l];
+                    t.e2[a][lane] = src.e2[a][l];
+                }
+                t.prim[lane] = src.prim[l];
+            }
+            blocks.push(t);
+        }
+        Some(blocks.into_boxed_slice())
+    }
+}
+
+/// The planes of the convex hull of `points` (every plane through three of them with all
+/// the points on one side, to within `slack`), facing out.
+fn hull_planes(points: &[Vec3], slack: f32) -> Vec<HalfSpace> {
+    let mut planes: Vec<HalfSpace> = Vec::new();
+    let n = points.len();
+    for i in 0..n {
+        for j in i + 1..n {
+            for k in j + 1..n {
+                let normal = (points[j] - points[i]).cross(points[k] - points[i]);
+                let normal = normal.normalize_or_zero();
+                if normal == Vec3::ZERO || !normal.is_finite() {
+                    continue;
+                }
+                let d = normal.dot(points[i]);
+                let (mut lo, mut hi) = (0f32, 0f32);
+                for p in points {
+                    let s = normal.dot(*p) - d;
+                    lo = lo.min(s);
+                    hi = hi.max(s);
+                }
+                // Outward: every point on the inner side, within the slack; the plane is
+                // moved out past the farthest point so that it holds them all.
+                let plane = if hi <= slack {
+                    (normal, d + hi)
+                } else if lo >= -slack {
+                    (-normal, -d - lo)
+                } else {
+                    continue;
+                };
+                if !planes.iter().any(|(m, e)| m.dot(plane.0) > 1.0 - 1e-6 && (e - plane.1).abs() <= slack) {
+                    planes.push(plane);
+                }
+            }
+        }
+    }
+    planes
+}
+
+/// True when a triangle of `list` meets `ray` in `[t_min, t_max)`, by the tree's own
+/// triangle test.
+#[inline]
+#[must_use]
+pub fn occluded_by(list: &[Tri4], ray: &Ray, t_min: f32, t_max: f32) -> bool {
+    list.iter().any(|t| block_any_hit(t, ray, t_min, t_max))
+}
+
+/// The lanes of `mask` (rays of `rays` that all leave from `origin`, bit for bit) that a
+/// triangle of `list` meets within their intervals: [`occluded_by`] for each, the same
+/// answers, with what depends on the origin alone (`s = o - v0`, `q = s × e1`, `e2·q`)
+/// computed once per triangle rather than per ray.
+#[must_use]
+pub fn fan_occluded(list: &[Tri4], origin: Vec3, rays: &RayLanes, mask: u32) -> u32 {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU has AVX2 (checked just above).
+        return unsafe { fan_occluded_avx2(list, origin, rays, mask) };
+    }
+    lanes_of(mask).filter(|&k| occluded_by(list, &rays.ray(k), rays.t_min[k], rays.t_max[k])).fold(0, |m, k| m | 1 << k)
+}
+
+/// [`fan_occluded`] eight lanes at a time: Möller–Trumbore as the tree's kernels compute
+/// it (the same products and sums in the same order, no fused multiply-adds), so the same
+/// floats and the same answers.
+///
+/// # Safety
+/// The CPU must have AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn fan_occluded_avx2(list: &[Tri4], o: Vec3, rays: &RayLanes, mask: u32) -> u32 {
+    use std::arch::x86_64::*;
+    let mut blocked = 0u32;
+    for half in 0..LANES / 8 {
+        let open = (mask >> (8 * half)) & 0xff;
+        if open == 0 {
+            continue;
+        }
+        // SAFETY: eight-float loads from eight-float slices of the lanes' rows.
+        let ld = |row: &[f32; LANES]| unsafe { _mm256_loadu_ps(row[8 * half..].as_ptr()) };
+        let (dx, dy, dz) = (ld(&rays.d[0]), ld(&rays.d[1]), ld(&rays.d[2]));
+        let (t_min, t_max) = (ld(&rays.t_min), ld(&rays.t_max));
+        let (zero, one) = (_mm256_setzero_ps(), _mm256_set1_ps(1.0));
+        let mut hit = 0u32;
+        'tris: for tri in list {
+            for l in (0..4).filter(|&l| tri.prim[l] != EMPTY) {
+                let v0 = Vec3::new(tri.v0[0][l], tri.v0[1][l], tri.v0[2][l]);
+                let e1 = Vec3::new(tri.e1[0][l], tri.e1[1][l], tri.e1[2][l]);
+                let e2 = Vec3::new(tri.e2[0][l], tri.e2[1][l], tri.e2[2][l]);
+                // The origin's part, as the kernels compute it lane by lane.
+                let s = Vec3::new(o.x - v0.x, o.y - v0.y, o.z - v0.z);
+                let q = Vec3::new(s.y * e1.z - s.z * e1.y, s.z * e1.x - s.x * e1.z, s.x * e1.y - s.y * e1.x);
+                let t_num = e2.x * q.x + e2.y * q.y + e2.z * q.z;
+                let b = _mm256_set1_ps;
+                let (mul, sub, add) = (|a, b| _mm256_mul_ps(a, b), |a, b| _mm256_sub_ps(a, b), |a, b| _mm256_add_ps(a, b));
+                // p = d × e2
+                let px = sub(mul(dy, b(e2.z)), mul(dz, b(e2.y)));
+                let py = sub(mul(dz, b(e2.x)), mul(dx, b(e2.z)));
+                let pz = sub(mul(dx, b(e2.y)), mul(dy, b(e2.x)));
+                let det = add(add(mul(b(e1.x), px), mul(b(e1.y), py)), mul(b(e1.z), pz));
+                let inv = _mm256_div_ps(one, det);
+                let u = mul(add(add(mul(b(s.x), px), mul(b(s.y), py)), mul(b(s.z), pz)), inv);
+                let v = mul(add(add(mul(dx, b(q.x)), mul(dy, b(q.y))), mul(dz, b(q.z))), inv);
+                let t = mul(b(t_num), inv);
+                let mut m = _mm256_cmp_ps::<_CMP_NEQ_UQ>(det, zero);
+                m = _mm256_and_ps(m, _mm256_cmp_ps::<_CMP_GE_OQ>(u, zero));
+                m = _mm256_and_ps(m, _mm256_cmp_ps::<_CMP_LE_OQ>(u, one));
+                m = _mm256_and_ps(m, _mm256_cmp_ps::<_CMP_GE_OQ>(v, zero));
+                m = _mm256_and_ps(m, _mm256_cmp_ps::<_CMP_LE_OQ>(add(u, v), one));
+                m = _mm256_and_ps(m, _mm256_cmp_ps::<_CMP_GE_OQ>(t, t_min));
+                m = _mm256_and_ps(m, _mm256_cmp_ps::<_CMP_LT_OQ>(t, t_max));
+                hit |= _mm256_movemask_ps(m) as u32 & open;
+                if hit == open {
+                    break 'tris;
+                }
+            }
+        }
+        blocked |= hit << (8 * half);
+    }
+    blocked
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accel::Accel;
+    use crate::geometry::{MeshAccel, TriangleMesh};
+    use crate::math::ray::RaySegment;
+    use crate::math::sampling::Sampler;
+
+    /// Small triangles (a few of them slivers) scattered over a floor, under a quad light:
+    /// the mesh, its tree and the light's corner and edges.
+    fn room(seed: u64) -> (TriangleMesh, Vec3, Vec3, Vec3) {
+        let mut rng = Sampler::from_seed(seed);
+        let mut r = |lo: f32, hi: f32| lo + (hi - lo) * rng.next_f32();
+        let mut vertices =
+            vec![Vec3::new(-10.0, 0.0, -10.0), Vec3::new(10.0, 0.0, -10.0), Vec3::new(-10.0, 0.0, 10.0), Vec3::new(10.0, 0.0, 10.0)];
+        let mut triangles = vec![[0, 2, 1], [1, 2, 3]];
+        for i in 0..1500u32 {
+            let c = Vec3::new(r(-9.0, 9.0), r(0.2, 6.0), r(-9.0, 9.0));
+            let a = c + Vec3::new(r(-0.6, 0.6), r(-0.6, 0.6), r(-0.6, 0.6));
+            let b = c + Vec3::new(r(-0.6, 0.6), r(-0.6, 0.6), r(-0.6, 0.6));
+            // Every tenth a sliver: its third vertex all but on the line of the first two.
+            let d =
+                if i % 10 == 0 { a + (b - a) * 0.37 + Vec3::splat(1e-6) } else { c + Vec3::new(r(-0.6, 0.6), r(-0.6, 0.6), r(-0.6, 0.6)) };
+            let n = vertices.len() as u32;
+            vertices.extend([a, b, d]);
+            triangles.push([n, n + 1, n + 2]);
+        }
+        let mut mesh = TriangleMesh::new(vertices, Vec::new(), triangles);
+        mesh.build_accel(Accel::BvhSah);
+        (mesh, Vec3::new(-4.0, 8.0, -3.0), Vec3::new(8.0, 0.0, 0.0), Vec3::new(0.0, 0.0, 6.0))
+    }
+
+    fn wide(mesh: &TriangleMesh) -> &WideBvh {
+        let MeshAccel::Wide(w) = mesh.accel() else { panic!("the SAH build is a wide tree") };
+        w
+    }
+
+    /// Sixteen shadow rays from `origin` to points of the light, as `spawn_ray_to` makes
+    /// them, a few of them invalid or empty.
+    fn fan(origin: Vec3, corner: Vec3, u: Vec3, v: Vec3, rng: &mut Sampler, round: usize) -> Vec<RaySegment> {
+        (0..LANES)
+            .map(|k| {
+                let target = corner + u * rng.next_f32() + v * rng.next_f32();
+                let to = target - origin;
+                let mut direction = to.normalize();
+                let mut t_max = to.length() * (1.0 - 1e-4);
+                match (round + k) % 29 {
+                    0 => direction = Vec3::ZERO,
+                    1 => direction.x = f32::NAN,
+                    2 => t_max = -1.0,
+                    _ => {}
+                }
+                RaySegment { origin, t_min: 0.0, direction, t_max }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn lists_answer_as_the_tree() {
+        for seed in [1, 2] {
+            let (mesh, corner, u, v) = room(seed);
+            let bvh = wide(&mesh);
+            let grid = ShaftGrid::new(&mesh.aabb(), corner, u, v, MAX_CELLS).unwrap();
+            let mut rng = Sampler::from_seed(seed + 10);
+            let (mut listed, mut traced, mut blocked, mut open) = (0, 0, 0, 0);
+            for round in 0..3000 {
+                // Points on the floor and in the air among the triangles.
+                let y = if round % 2 == 0 { 1e-3 } else { 6.0 * rng.next_f32() };
+                let origin = Vec3::new(20.0 * rng.next_f32() - 10.0, y, 20.0 * rng.next_f32() - 10.0);
+                let rays = fan(origin, corner, u, v, &mut rng, round);
+                let Some(list) = grid.cell_of(origin).and_then(|c| grid.list(bvh, c)) else {
+                    traced += 1;
+                    continue;
+                };
+                listed += 1;
+                assert!(list.len() * 4 <= MAX_TRIANGLES.next_multiple_of(4));
+                let lanes = RayLanes::new(&rays);
+                let mask = if round % 3 == 0 { u32::MAX >> (32 - LANES) } else { (rng.next_f32().to_bits() >> 5) & 0xffff };
+                let got = fan_occluded(list, origin, &lanes, mask);
+                for (k, r) in rays.iter().enumerate() {
+                    let tree = bvh.occluded(&r.ray(), r.t_min, r.t_max);
+                    assert_eq!(occluded_by(list, &r.ray(), r.t_min, r.t_max), tree, "seed {seed}, round {round}, ray {k}: {r:?}");
+                    assert_eq!(got & (1 << k) != 0, mask & (1 << k) != 0 && tree, "fan, seed {seed}, round {round}, ray {k}");
+                    if mask & (1 << k) != 0 && r.ray().is_valid() && r.t_max > 0.0 {
+                        *(if tree { &mut blocked } else { &mut open }) += 1;
+                    }
+                }
+            }
+            assert!(listed > 300 && traced > 300, "seed {seed}: {listed} fans from listed cells, {traced} from cells that trace");
+            assert!(blocked > 500 && open > 500, "seed {seed}: {blocked} blocked, {open} open");
+        }
+    }
+
+    #[test]
+    fn fans_in_avx2_answer_as_one_ray_at_a_time() {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            let (mesh, corner, u, v) = room(3);
+            let bvh = wide(&mesh);
+            let mut rng = Sampler::from_seed(4);
+            for round in 0..2000 {
+                // Lists of the tree's own blocks, one to six of them.
+                let first = (rng.next_f32() * (bvh.tris.len() - 6) as f32) as usize;
+                let list = &bvh.tris[first..first + 1 + round % 6];
+                let origin = Vec3::new(20.0 * rng.next_f32() - 10.0, 6.0 * rng.next_f32(), 20.0 * rng.next_f32() - 10.0);
+                let rays = fan(origin, corner, u, v, &mut rng, round);
+                let lanes = RayLanes::new(&rays);
+                let mask = (rng.next_f32().to_bits() >> 5) & 0xffff;
+                // SAFETY: the CPU has AVX2 (checked above).
+                let got = unsafe { fan_occluded_avx2(list, origin, &lanes, mask) };
+                let one_by_one =
+                    lanes_of(mask).filter(|&k| occluded_by(list, &rays[k].ray(), rays[k].t_min, rays[k].t_max)).fold(0, |m, k| m | 1 << k);
+                assert_eq!(got, one_by_one, "round {round}");
+            }
+        }
+    }
+
+    #[test]
+    fn grids_refuse_what_they_cannot_cover() {
+        let (corner, u, v) = (Vec3::new(0.0, 5.0, 0.0), Vec3::X, Vec3::Z);
+        assert!(ShaftGrid::new(&Aabb::EMPTY, corner, u, v, MAX_CELLS).is_none());
+        let b = Aabb::new(Vec3::ZERO, Vec3::ONE);
+        assert!(ShaftGrid::new(&b, Vec3::splat(f32::NAN), u, v, MAX_CELLS).is_none());
+        assert!(ShaftGrid::new(&Aabb::new(Vec3::ZERO, Vec3::new(f32::INFINITY, 1.0, 1.0)), corner, u, v, MAX_CELLS).is_none());
+        // A cube is cut into at most `max_cells` cells; a flat box into one layer.
+        for max in [MAX_CELLS, 1000, 1] {
+            let g = ShaftGrid::new(&b, corner, u, v, max).unwrap();
+            assert!(g.cells.len() <= max, "{} cells for at most {max}", g.cells.len());
+        }
+        let flat = ShaftGrid::new(&Aabb::new(Vec3::ZERO, Vec3::new(4.0, 0.0, 2.0)), corner, u, v, MAX_CELLS).unwrap();
+        assert_eq!(flat.dims, [CELLS_ALONG, 1, CELLS_ALONG / 2 + 1]);
+        let g = ShaftGrid::new(&b, corner, u, v, MAX_CELLS).unwrap();
+        for p in [Vec3::splat(-0.01), Vec3::splat(1.5), Vec3::new(0.5, f32::NAN, 0.5), Vec3::splat(f32::INFINITY)] {
+            assert_eq!(g.cell_of(p), None, "{p}");
+        }
+        for p in [Vec3::ZERO, Vec3::splat(0.5), Vec3::splat(0.999)] {
+            let c = g.cell_of(p).unwrap();
+            let (lo, hi) = g.cell_box(c);
+            assert!((lo - Vec3::splat(1e-5)).cmple(p).all() && p.cmple(hi + Vec3::splat(1e-5)).all(), "{p} in {lo}..{hi}");
+        }
+    }
+}
