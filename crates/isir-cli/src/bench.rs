@@ -9,7 +9,7 @@ use anyhow::Context;
 use clap::Args;
 use isir::rays::{self, compare_hits, HitRecord, RayKind};
 use isir::scenes::{MeshSource, SceneDescription};
-use isir::{Accel, Geometry, Scene, TriangleMesh};
+use isir::{Accel, Scene, TriangleMesh};
 use std::collections::HashMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -309,31 +309,23 @@ fn run_in_pool(a: &BenchArgs) -> anyhow::Result<()> {
 /// vertices moved to where they stand, each mesh's triangles after the one before's.
 fn bench_mesh(scene: &Scene, desc: &SceneDescription) -> Option<(TriangleMesh, Option<MeshSource>)> {
     use isir::scenes::ShapeDesc;
-    let meshes: Vec<&isir::scene::Object> =
-        scene.objects.iter().filter(|o| matches!(o.geometry, Geometry::Mesh(_) | Geometry::Instance(_))).collect();
-    if let [o] = meshes.as_slice() {
-        if let Geometry::Mesh(m) = &o.geometry {
-            // The file as it is, when the scene's mesh object is this plain mesh.
-            let source = desc.objects.iter().find_map(|d| match &d.shape {
-                ShapeDesc::Mesh { source, .. } if d.name == o.name => Some(source.clone()),
-                _ => None,
-            });
-            return Some((m.as_ref().clone(), source));
-        }
+    let meshes: Vec<isir::scene::PlacedMesh> = scene.placed_meshes().collect();
+    if let [placed @ isir::scene::PlacedMesh { to_world: None, .. }] = meshes.as_slice() {
+        // The file as it is, when the scene's mesh object is this plain mesh.
+        let source = desc.objects.iter().find_map(|d| match &d.shape {
+            ShapeDesc::Mesh { source, .. } if d.name == placed.object.name => Some(source.clone()),
+            _ => None,
+        });
+        return Some((placed.mesh.clone(), source));
     }
     if meshes.is_empty() {
         return None;
     }
     let (mut vertices, mut triangles) = (Vec::new(), Vec::new());
-    for o in meshes {
-        let (mesh, to_world) = match &o.geometry {
-            Geometry::Mesh(m) => (m.as_ref(), None),
-            Geometry::Instance(i) => (i.mesh.as_ref(), Some(i.to_world())),
-            _ => unreachable!("meshes only"),
-        };
+    for placed in meshes {
         let first = u32::try_from(vertices.len()).ok()?;
-        vertices.extend(mesh.vertices.iter().map(|&v| to_world.map_or(v, |t| t.transform_point3(v))));
-        triangles.extend(mesh.triangles.iter().map(|t| t.map(|i| i + first)));
+        vertices.extend(placed.mesh.vertices.iter().map(|&v| placed.to_world.map_or(v, |t| t.transform_point3(v))));
+        triangles.extend(placed.mesh.triangles.iter().map(|t| t.map(|i| i + first)));
     }
     Some((TriangleMesh::new(vertices, Vec::new(), triangles), None))
 }
@@ -451,7 +443,7 @@ fn bench_in(
         "isir bench: {name}, {} triangles ({} degenerate){}, {}x{} rays, {}, isir simd {} ({}){}{}",
         build.stats.triangles,
         build.stats.degenerate,
-        match scene.objects.iter().filter(|o| matches!(o.geometry, Geometry::Mesh(_) | Geometry::Instance(_))).count() {
+        match scene.placed_meshes().count() {
             0 | 1 => String::new(),
             n => format!(" (the scene's {n} meshes as one)"),
         },

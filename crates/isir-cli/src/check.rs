@@ -3,7 +3,6 @@
 
 use crate::out;
 use clap::Args;
-use isir::geometry::Geometry;
 use std::path::PathBuf;
 
 #[derive(Args, Debug)]
@@ -16,15 +15,7 @@ pub fn run(a: CheckArgs) -> anyhow::Result<()> {
     let file = isir::scenes::load_scene_file(&a.scene)?;
     let d = &file.description;
     let scene = d.build(isir::Accel::BvhSah)?;
-    let triangles: usize = scene
-        .objects
-        .iter()
-        .map(|o| match &o.geometry {
-            Geometry::Mesh(m) => m.triangles.len(),
-            Geometry::Instance(i) => i.mesh.triangles.len(),
-            _ => 0,
-        })
-        .sum();
+    let triangles: usize = scene.placed_meshes().map(|p| p.mesh.triangles.len()).sum();
     out!("{}: ok", a.scene.display());
     out!("image:      {}x{}, {} spp, {}", file.width.unwrap_or(600), file.height.unwrap_or(400), d.spp, d.integrator.name());
     out!("objects:    {} ({triangles} triangles in meshes)", scene.objects.len());

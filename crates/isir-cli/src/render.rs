@@ -115,11 +115,7 @@ fn file_scene(path: &str) -> SceneDescription {
 /// point light at the camera ([`CameraDesc::framing`]).
 fn frame(path: &str, desc: &mut SceneDescription, scene: &mut Scene) -> anyhow::Result<()> {
     // Every mesh, those placed by a glTF file's nodes (instances) too.
-    let b = scene.objects.iter().fold(isir::Aabb::EMPTY, |b, o| match &o.geometry {
-        isir::Geometry::Mesh(m) => b.union(&m.aabb()),
-        isir::Geometry::Instance(i) => b.union(&i.bounds()),
-        _ => b,
-    });
+    let b = scene.placed_meshes().fold(isir::Aabb::EMPTY, |b, p| b.union(&p.bounds));
     let (camera, light) = CameraDesc::framing(&b).with_context(|| path.to_string())?;
     desc.camera = camera;
     desc.lights = vec![light.clone()];

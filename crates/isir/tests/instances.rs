@@ -119,3 +119,39 @@ fn a_thousand_instances_share_one_mesh_and_render_as_the_object_loop_does() {
     let seen = a.pixels.iter().filter(|c| **c != scene.background).count();
     assert!(seen > 150, "{seen} pixels show a bunny");
 }
+
+#[test]
+fn placed_meshes_are_every_mesh_where_it_stands() {
+    let mut desc = grid(2, 4.0);
+    desc.objects.push(ObjectDesc {
+        name: "plain".into(),
+        shape: ShapeDesc::Mesh { source: MeshSource::Builtin("Bunny"), shading: Default::default() },
+        material: None,
+    });
+    desc.objects.push(ObjectDesc {
+        name: "ball".into(),
+        shape: ShapeDesc::Sphere(isir::Sphere::new(Vec3::new(0.0, 9.0, 0.0), 1.0)),
+        material: None,
+    });
+    let scene = desc.build(Accel::BvhSah).unwrap();
+    let placed: Vec<_> = scene.placed_meshes().collect();
+    // The eight instances, then the plain mesh; not the sphere.
+    assert_eq!(placed.len(), 9);
+    for (i, p) in placed.iter().enumerate() {
+        assert_eq!(p.object.name, if i < 8 { format!("bunny{i}") } else { "plain".to_string() });
+        assert_eq!(p.to_world.is_some(), i < 8);
+        // Its box holds its vertices moved to where they stand; a plain mesh's is its own.
+        let eps = 1e-4 * p.bounds.max.abs().max(p.bounds.min.abs()).max_element();
+        for &v in &p.mesh.vertices {
+            let w = p.to_world.map_or(v, |t| t.transform_point3(v));
+            assert!(
+                (p.bounds.min - Vec3::splat(eps)).cmple(w).all() && w.cmple(p.bounds.max + Vec3::splat(eps)).all(),
+                "{i}: {w} out of {:?}",
+                p.bounds
+            );
+        }
+        if p.to_world.is_none() {
+            assert_eq!(p.bounds, p.mesh.aabb());
+        }
+    }
+}

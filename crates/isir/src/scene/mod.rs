@@ -410,4 +410,30 @@ impl Scene {
             _ => None,
         })
     }
+
+    /// Every mesh of the scene where it stands: plain meshes and those placed by a
+    /// transform (instances: a scene file's mesh with a `transform`, a glTF file's nodes),
+    /// in object order.
+    pub fn placed_meshes(&self) -> impl Iterator<Item = PlacedMesh<'_>> {
+        self.objects.iter().filter_map(|o| match &o.geometry {
+            Geometry::Mesh(m) => Some(PlacedMesh { object: o, mesh: m.as_ref(), to_world: None, bounds: m.aabb() }),
+            Geometry::Instance(i) => {
+                Some(PlacedMesh { object: o, mesh: i.mesh.as_ref(), to_world: Some(i.to_world()), bounds: i.bounds() })
+            }
+            _ => None,
+        })
+    }
+}
+
+/// A mesh of a scene and where it stands ([`Scene::placed_meshes`]).
+#[derive(Clone, Copy, Debug)]
+pub struct PlacedMesh<'a> {
+    /// The object that holds it.
+    pub object: &'a Object,
+    /// The mesh, in its own space.
+    pub mesh: &'a TriangleMesh,
+    /// From its space to the world's; `None` for a mesh given in world space.
+    pub to_world: Option<glam::Affine3A>,
+    /// A box holding it in the world (an instance's: its mesh's box, moved).
+    pub bounds: Aabb,
 }
