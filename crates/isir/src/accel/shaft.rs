@@ -13,7 +13,7 @@
 //! them with the tree's own triangle test, so a ray gets exactly the tree's answer from
 //! every triangle it is tested against. A triangle is left out only when a plane separates
 //! it from the shaft with room to spare: more than the rounding of the triangle test
-//! could ever bridge (see [`ShaftGrid::triangle_margin`]).
+//! could ever bridge (the bound is `ShaftGrid::triangle_margin`).
 
 use super::wide::{block_any_hit, leaf_blocks, Tri4, WideBvh, EMPTY, LEAF};
 use crate::math::aabb::Aabb;
