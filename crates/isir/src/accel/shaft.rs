@@ -84,8 +84,15 @@ impl ShaftGrid {
         let mut cell = (extent.max_element() / CELLS_ALONG as f32).max((volume.x * volume.y * volume.z / max_cells.max(1) as f32).cbrt());
         let dims_of = |cell: f32| [0, 1, 2].map(|a| ((extent[a] / cell).floor() as usize + 1).min(CELLS_ALONG));
         // The cells of the box's far faces can overshoot the count: larger cells then.
+        // (A side that rounds to zero or overflows has no grid: no loop without an end.)
+        if !(cell > 0.0 && cell.is_finite()) {
+            return None;
+        }
         while dims_of(cell).iter().product::<usize>() > max_cells.max(1) {
             cell *= 1.05;
+            if !cell.is_finite() {
+                return None;
+            }
         }
         let dims = dims_of(cell);
         let scale = quad.iter().chain([&bounds.min, &bounds.max]).fold(0f32, |m, p| m.max(p.abs().max_element()));
@@ -550,6 +557,11 @@ mod tests {
             let g = ShaftGrid::new(&b, corner, u, v, max).unwrap();
             assert!(g.cells.len() <= max, "{} cells for at most {max}", g.cells.len());
         }
+        // Boxes too small or too large for a cell size in floats: none, and no hang.
+        assert!(ShaftGrid::new(&Aabb::new(Vec3::ZERO, Vec3::splat(1e-44)), corner, u, v, MAX_CELLS).is_none());
+        assert!(ShaftGrid::new(&Aabb::new(Vec3::splat(-3e38), Vec3::splat(3e38)), corner, u, v, MAX_CELLS).is_none());
+        let tiny = ShaftGrid::new(&Aabb::new(Vec3::ZERO, Vec3::splat(1e-20)), corner, u, v, MAX_CELLS).unwrap();
+        assert!(tiny.cells.len() <= MAX_CELLS && tiny.cell_of(Vec3::splat(5e-21)).is_some());
         let flat = ShaftGrid::new(&Aabb::new(Vec3::ZERO, Vec3::new(4.0, 0.0, 2.0)), corner, u, v, MAX_CELLS).unwrap();
         assert_eq!(flat.dims, [CELLS_ALONG, 1, CELLS_ALONG / 2 + 1]);
         let g = ShaftGrid::new(&b, corner, u, v, MAX_CELLS).unwrap();
