@@ -15,6 +15,7 @@ use crate::math::aabb::Aabb;
 use crate::math::color::Color;
 use crate::math::ray::{Ray, RayLanes, RaySegment};
 use glam::Vec3;
+use std::sync::OnceLock;
 
 mod flat;
 mod lanes;
@@ -52,10 +53,15 @@ pub struct Scene {
     /// Spheres and planes only: their tests side by side (built by [`Scene::new`] and
     /// [`Scene::prepare`]; ignored once the object count has changed).
     flat: Option<FlatObjects>,
-    /// Per light: a quad light's shadow-ray cells in a scene of one mesh (built by
-    /// [`Scene::prepare`], with the light they were made for), else `None`.
-    shafts: Vec<Option<(Light, ShaftGrid)>>,
+    /// Per light: a quad light's shadow-ray cells in a scene of one mesh (set up by
+    /// [`Scene::prepare`] with the light they are for and their share of [`MAX_CELLS`],
+    /// made when first asked for), else `None`.
+    shafts: Vec<Option<LightShafts>>,
 }
+
+/// A quad light's shadow-ray cells: the light they are for, their share of [`MAX_CELLS`],
+/// and the grid once made (`None` inside when the mesh's box has none).
+type LightShafts = (Light, usize, OnceLock<Option<ShaftGrid>>);
 
 /// The scene's own BVH (the SAH build of [`crate::accel::bvh`] over the objects' world
 /// boxes), and the unbounded objects (planes) tried after it.
@@ -104,16 +110,9 @@ impl Scene {
         }
         let quads = self.lights.iter().filter(|l| l.is_surface()).count();
         self.shafts = match self.pair_mesh() {
-            Some(mesh) => self
-                .lights
-                .iter()
-                .map(|light| match *light {
-                    Light::Quad { corner, u, v, .. } => {
-                        ShaftGrid::new(&mesh.aabb(), corner, u, v, MAX_CELLS / quads).map(|g| (light.clone(), g))
-                    }
-                    Light::Point { .. } => None,
-                })
-                .collect(),
+            Some(_) => {
+                self.lights.iter().map(|light| light.is_surface().then(|| (light.clone(), MAX_CELLS / quads, OnceLock::new()))).collect()
+            }
             None => Vec::new(),
         };
     }
@@ -121,13 +120,23 @@ impl Scene {
     /// The shadow-ray cells of quad light `light` and the tree their lists come from: in
     /// a scene of one mesh traced by its wide BVH, while the light and the mesh's box are
     /// those the cells were made for (a scene changed without [`Scene::prepare`] traces
-    /// every ray).
+    /// every ray). The grid is made on the first call (PERF: its 8 MB of cells are not
+    /// written for renders that never ask, nor by `isir trace` and `isir bench`).
     #[inline]
     pub(crate) fn shaft(&self, light: usize) -> Option<(&ShaftGrid, &WideBvh)> {
-        let (made_for, grid) = self.shafts.get(light)?.as_ref()?;
+        let (made_for, max_cells, grid) = self.shafts.get(light)?.as_ref()?;
         let mesh = self.pair_mesh()?;
         let MeshAccel::Wide(bvh) = mesh.accel() else { return None };
-        (self.lights.get(light) == Some(made_for) && grid.bounds() == &mesh.aabb()).then_some((grid, bvh))
+        if self.lights.get(light) != Some(made_for) {
+            return None;
+        }
+        let grid = grid
+            .get_or_init(|| match *made_for {
+                Light::Quad { corner, u, v, .. } => ShaftGrid::new(&mesh.aabb(), corner, u, v, *max_cells),
+                Light::Point { .. } => None,
+            })
+            .as_ref()?;
+        (grid.bounds() == &mesh.aabb()).then_some((grid, bvh))
     }
 
     /// The flat form of the objects, unless their count has changed since it was built.
