@@ -39,8 +39,6 @@ const SHADOW_EPSILON: f32 = 1e-4;
 pub struct ShaftGrid {
     /// The mesh's box the grid covers.
     bounds: Aabb,
-    /// The grid's lowest corner.
-    min: Vec3,
     /// A cell's side.
     cell: f32,
     /// Its inverse.
@@ -99,7 +97,6 @@ impl ShaftGrid {
         let count = dims[0] * dims[1] * dims[2];
         Some(ShaftGrid {
             bounds: *bounds,
-            min: bounds.min,
             cell,
             inv_cell: 1.0 / cell,
             dims,
@@ -121,7 +118,7 @@ impl ShaftGrid {
     pub fn cell_of(&self, p: Vec3) -> Option<usize> {
         // A point within rounding of a cell's face may be given the cell beside it: the
         // shafts' slack covers that much.
-        let c = (p - self.min) * self.inv_cell;
+        let c = (p - self.bounds.min) * self.inv_cell;
         let mut index = 0;
         for a in (0..3).rev() {
             // Not `c >= 0 && c < dims` negated: NaN fails both.
@@ -136,7 +133,7 @@ impl ShaftGrid {
     /// The box of cell `index`.
     fn cell_box(&self, index: usize) -> (Vec3, Vec3) {
         let (x, y, z) = (index % self.dims[0], index / self.dims[0] % self.dims[1], index / (self.dims[0] * self.dims[1]));
-        let lo = self.min + Vec3::new(x as f32, y as f32, z as f32) * self.cell;
+        let lo = self.bounds.min + Vec3::new(x as f32, y as f32, z as f32) * self.cell;
         (lo, lo + Vec3::splat(self.cell))
     }
 
@@ -189,17 +186,9 @@ impl ShaftGrid {
         let slack = SHADOW_EPSILON * (hi - lo).length() + 64.0 * f32::EPSILON * self.scale;
         let planes = hull_planes(&points, slack);
         let (pmin, pmax) = points.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(a, b), p| (a.min(*p), b.max(*p)));
-        // A box (or triangle) whose corners all lie beyond one plane by `m` is out.
-        let outside = |bmin: Vec3, bmax: Vec3, m: f32| -> bool {
-            if (bmin - pmax).max_element() > m || (pmin - bmax).max_element() > m {
-                return true;
-            }
-            planes.iter().any(|&(n, d)| {
-                // The box's corner nearest the inside of the plane.
-                let near = Vec3::select(n.cmpge(Vec3::ZERO), bmin, bmax);
-                n.dot(near) - d > m
-            })
-        };
+        // A triangle whose box lies beyond the hull's box by `m` is out (the hull's planes
+        // are tried on its vertices below; nodes' boxes go through `lanes_within`).
+        let box_out = |bmin: Vec3, bmax: Vec3, m: f32| (bmin - pmax).max_element() > m || (pmin - bmax).max_element() > m;
         let mut found: Vec<(usize, usize)> = Vec::new();
         let mut stack = vec![bvh.root];
         while let Some(code) = stack.pop() {
@@ -207,14 +196,12 @@ impl ShaftGrid {
                 for b in leaf_blocks(code) {
                     let t = &bvh.tris[b];
                     for lane in (0..4).filter(|&l| t.prim[l] != EMPTY) {
-                        let v0 = Vec3::new(t.v0[0][lane], t.v0[1][lane], t.v0[2][lane]);
-                        let e1 = Vec3::new(t.e1[0][lane], t.e1[1][lane], t.e1[2][lane]);
-                        let e2 = Vec3::new(t.e2[0][lane], t.e2[1][lane], t.e2[2][lane]);
+                        let [v0, e1, e2] = t.lane(lane);
                         let m = slack + self.triangle_margin(e1, e2);
                         let (v1, v2) = (v0 + e1, v0 + e2);
                         let tri_out = m.is_finite() && {
                             let (tmin, tmax) = (v0.min(v1).min(v2), v0.max(v1).max(v2));
-                            outside(tmin, tmax, m) || planes.iter().any(|&(n, d)| [v0, v1, v2].iter().all(|p| n.dot(*p) - d > m)) || {
+                            box_out(tmin, tmax, m) || planes.iter().any(|&(n, d)| [v0, v1, v2].iter().all(|p| n.dot(*p) - d > m)) || {
                                 // The triangle's own plane, the shaft all on one side.
                                 let n = e1.cross(e2).normalize_or_zero();
                                 let d = n.dot(v0);
@@ -245,15 +232,9 @@ impl ShaftGrid {
         }
         let mut blocks = Vec::with_capacity(found.len().div_ceil(4));
         for group in found.chunks(4) {
-            let mut t = Tri4 { v0: [[f32::NAN; 4]; 3], e1: [[f32::NAN; 4]; 3], e2: [[f32::NAN; 4]; 3], prim: [EMPTY; 4] };
+            let mut t = Tri4::EMPTY;
             for (lane, &(b, l)) in group.iter().enumerate() {
-                let src = &bvh.tris[b];
-                for a in 0..3 {
-                    t.v0[a][lane] = src.v0[a][l];
-                    t.e1[a][lane] = src.e1[a][l];
-                    t.e2[a][lane] = src.e2[a][l];
-                }
-                t.prim[lane] = src.prim[l];
+                t.copy_lane(lane, &bvh.tris[b], l);
             }
             blocks.push(t);
         }
@@ -262,12 +243,11 @@ impl ShaftGrid {
 }
 
 /// The lanes of `node` with a child whose box is not out of the shaft (bounded by
-/// `planes` and by the box `pmin..pmax`) by more than `m`: what `outside` in
-/// [`ShaftGrid::make_list`] answers box by box, the eight boxes at once (loops over the
-/// node's rows that the compiler vectorises).
+/// `planes` and by the box `pmin..pmax`) by more than `m`, the eight boxes at once (loops
+/// over the node's rows that the compiler vectorises).
 /// PERF: the conference room's 11,093 lists at 16 spp took 123–141 ms of one core box by
 /// box, 117–128 ms eight at once (three runs each).
-// `!(x > m)` on purpose: a NaN distance keeps its box, as the box-by-box test does.
+// `!(x > m)` on purpose: a NaN distance keeps its box.
 #[allow(clippy::neg_cmp_op_on_partial_ord)]
 fn lanes_within(node: &Node8, planes: &[HalfSpace], pmin: Vec3, pmax: Vec3, m: f32) -> u32 {
     let mut keep = [true; 8];
@@ -392,9 +372,7 @@ unsafe fn fan_occluded_avx2(list: &[Tri4], o: Vec3, rays: &RayLanes, mask: u32) 
         let mut hit = 0u32;
         'tris: for tri in list {
             for l in (0..4).filter(|&l| tri.prim[l] != EMPTY) {
-                let v0 = Vec3::new(tri.v0[0][l], tri.v0[1][l], tri.v0[2][l]);
-                let e1 = Vec3::new(tri.e1[0][l], tri.e1[1][l], tri.e1[2][l]);
-                let e2 = Vec3::new(tri.e2[0][l], tri.e2[1][l], tri.e2[2][l]);
+                let [v0, e1, e2] = tri.lane(l);
                 // The origin's part, as the kernels compute it lane by lane.
                 let s = Vec3::new(o.x - v0.x, o.y - v0.y, o.z - v0.z);
                 let q = Vec3::new(s.y * e1.z - s.z * e1.y, s.z * e1.x - s.x * e1.z, s.x * e1.y - s.y * e1.x);

@@ -109,9 +109,9 @@ pub(super) fn tri4_lanes(
         if tri.prim[lane] == EMPTY {
             continue;
         }
-        let get = |a: &[[f32; 4]; 3]| Vec3::new(a[0][lane], a[1][lane], a[2][lane]);
+        let [a, b, c] = tri.lane(lane);
         let limit = best.map_or(t_max, |b| b.t);
-        if let Some(h) = test(get(&tri.v0), get(&tri.e1), get(&tri.e2), t_min, limit) {
+        if let Some(h) = test(a, b, c, t_min, limit) {
             best = Some(MeshHit { t: h.t, prim: tri.prim[lane], u: h.u, v: h.v });
         }
     }

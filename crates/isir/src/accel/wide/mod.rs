@@ -101,9 +101,12 @@ pub struct Tri4 {
 const _: () = assert!(std::mem::size_of::<Tri4>() == 160);
 
 impl Tri4 {
+    /// A block of padding only: NaN vectors that no ray hits, `EMPTY` numbers.
+    pub(crate) const EMPTY: Tri4 = Tri4 { v0: [[f32::NAN; 4]; 3], e1: [[f32::NAN; 4]; 3], e2: [[f32::NAN; 4]; 3], prim: [EMPTY; 4] };
+
     /// The block of triangles `prims` (`EMPTY` lanes are padding).
     fn new(mesh: &impl Triangles, prims: &[u32; 4], watertight: bool) -> Tri4 {
-        let mut t = Tri4 { v0: [[f32::NAN; 4]; 3], e1: [[f32::NAN; 4]; 3], e2: [[f32::NAN; 4]; 3], prim: [EMPTY; 4] };
+        let mut t = Tri4::EMPTY;
         for (lane, &p) in prims.iter().enumerate().filter(|(_, &p)| p != EMPTY) {
             let [a, b, c] = mesh.vertices_of(p);
             // The same subtractions as `moller_trumbore`, so results are bit-identical.
@@ -118,6 +121,24 @@ impl Tri4 {
             t.prim[lane] = p;
         }
         t
+    }
+
+    /// The three stored vectors of `lane`: `v0, e1, e2` (`v0, v1, v2` in a watertight
+    /// block).
+    #[inline(always)]
+    pub(crate) fn lane(&self, lane: usize) -> [Vec3; 3] {
+        let get = |a: &[[f32; 4]; 3]| Vec3::new(a[0][lane], a[1][lane], a[2][lane]);
+        [get(&self.v0), get(&self.e1), get(&self.e2)]
+    }
+
+    /// Lane `lane` made a copy of lane `from_lane` of `from`.
+    pub(crate) fn copy_lane(&mut self, lane: usize, from: &Tri4, from_lane: usize) {
+        for a in 0..3 {
+            self.v0[a][lane] = from.v0[a][from_lane];
+            self.e1[a][lane] = from.e1[a][from_lane];
+            self.e2[a][lane] = from.e2[a][from_lane];
+        }
+        self.prim[lane] = from.prim[from_lane];
     }
 }
 
