@@ -207,9 +207,9 @@ impl Renderer {
         let (mut sx, mut sy, mut slot) = ([0.0f32; LANES], [0.0f32; LANES], [0usize; LANES]);
         let mut rays = RayLanes::new(&[]);
         let mut out = [Color::ZERO; LANES];
-        let mut flush = |samplers: &mut Vec<Sampler>, sx: &[f32], sy: &[f32], slot: &[usize], sums: &mut [(Color, u32)]| {
+        let mut flush = |samplers: &mut Vec<Sampler>, sx: &[f32; LANES], sy: &[f32; LANES], slot: &[usize], sums: &mut [(Color, u32)]| {
             let n = samplers.len();
-            camera.generate_rays(&sx[..n], &sy[..n], &mut rays);
+            camera.generate_lanes(sx, sy, n, &mut rays);
             integrator.li_lanes(scene, &rays, samplers, counters, &mut out);
             // Each pixel's run of samples summed in a local, in sample order, and stored
             // once. PERF: added in place, each sample's sum waited on the store of the one
