@@ -43,7 +43,8 @@ impl Integrator {
             scene.lane_hit_rows_into(rays, &closest, n, &mut hits, &mut rows);
             return path_lanes(scene, rays, &mut hits, &mut rows, light_samples, max_depth, samplers, counters, out);
         }
-        let hits = scene.lane_hits(rays, &closest, n);
+        let mut hits = [None; LANES];
+        scene.lane_hits_into(rays, &closest, n, &mut hits);
         match *self {
             Integrator::DirectLighting { light_samples } => direct_lanes(scene, rays, &hits, light_samples, samplers, counters, out),
             Integrator::Whitted { light_samples, max_depth } => {

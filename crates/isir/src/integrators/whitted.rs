@@ -301,13 +301,14 @@ pub(super) fn li_at_hits(
             }
         }
         // Their closest hits, sixteen at a time.
+        let mut found = [None; LANES];
         for chunk in born.chunks(LANES) {
             let mut lanes = RayLanes::EMPTY;
             for (j, &c) in chunk.iter().enumerate() {
                 lanes.set(j, nodes[c].ray.origin, nodes[c].ray.direction, 0.0, f32::INFINITY);
             }
             let closest = scene.intersect_lanes(&lanes, chunk.len());
-            let found = scene.lane_hits(&lanes, &closest, chunk.len());
+            scene.lane_hits_into(&lanes, &closest, chunk.len(), &mut found);
             for (j, &c) in chunk.iter().enumerate() {
                 nodes[c].hit = found[j];
             }
