@@ -53,7 +53,7 @@ impl Camera {
     }
 
     /// The rays of [`Camera::generate_ray`] through the screen points `(sx[k], sy[k])`,
-    /// bit for bit, computed as arrays in one vectorised loop, into the lanes of `rays`
+    /// bit for bit, computed as arrays ([`Camera::generate_lanes`]), into the lanes of `rays`
     /// (interval `[0, ∞)`); lanes from `sx.len()` on get zero rays, which meet nothing.
     ///
     /// # Panics

@@ -357,12 +357,18 @@ fn nan_samples_are_counted_and_dropped_not_propagated() {
         Vec3::new(f32::INFINITY, f32::NAN, 0.0),
         Vec3::new(0.0, f32::NEG_INFINITY, 0.0),
         Vec3::new(-0.5, 1.0, 1.0),
+        // Signed zeros are not negative; the largest float is finite.
+        Vec3::new(-0.0, 0.0, 1.0),
+        Vec3::new(f32::MAX, 0.0, -0.0),
+        Vec3::new(0.0, 0.0, f32::INFINITY),
+        Vec3::new(0.0, 0.0, f32::NAN),
+        Vec3::new(1.0, 1.0, -1e-30),
     ]
     .iter()
     .map(|&c| counts.check(c))
     .collect();
-    assert_eq!(kept, [true, false, false, false, true]);
-    assert_eq!((counts.nan, counts.inf, counts.negative), (2, 1, 1));
+    assert_eq!(kept, [true, false, false, false, true, true, true, false, false, true]);
+    assert_eq!((counts.nan, counts.inf, counts.negative), (3, 2, 2));
 }
 
 #[test]
