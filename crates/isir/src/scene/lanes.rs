@@ -147,19 +147,20 @@ impl Scene {
         (i != NO_OBJECT).then(|| self.interaction_inline(&rays.ray(k), i as usize, hits.t[k], hits.prim[k], hits.u[k], hits.v[k]))
     }
 
-    /// [`Scene::lane_hit`] of the first `count` lanes (`None` from `count` on).
-    /// PERF: built in place, in one loop: each `lane_hit` returned through the stack and
-    /// copied into the array stalled on store forwarding (8% of tp4-bunny).
+    /// [`Scene::lane_hit`] of the first `count` lanes (`None` from `count` on), in a new
+    /// array: [`Scene::lane_hits_into`], which the renderer's loops call on their own.
     #[must_use]
     pub fn lane_hits(&self, rays: &RayLanes, hits: &LaneHits, count: usize) -> [Option<Hit>; LANES] {
         let mut out = [None; LANES];
-        self.hits_into_nones(rays, hits, count, &mut out, None);
+        self.lane_hits_into(rays, hits, count, &mut out);
         out
     }
 
     /// [`Scene::lane_hits`] written into `out` (every lane: `None` from `count` on).
-    /// PERF: returned by value, the sixteen hits (1.4 kB) were built in a local and then
-    /// copied (`memmove`, 8% of tp1-sphere's samples).
+    /// PERF: built in place, in one loop: each `lane_hit` returned through the stack and
+    /// copied into the array stalled on store forwarding (8% of tp4-bunny); and into the
+    /// caller's array: returned by value, the sixteen hits (1.4 kB) were built in a local
+    /// and then copied (`memmove`, 8% of tp1-sphere's samples).
     pub fn lane_hits_into(&self, rays: &RayLanes, hits: &LaneHits, count: usize, out: &mut [Option<Hit>; LANES]) {
         *out = [None; LANES];
         self.hits_into_nones(rays, hits, count, out, None);
