@@ -29,15 +29,19 @@ from pathlib import Path
 
 
 def run_once(binary: str, args: list[str], out: Path) -> tuple[float, float]:
-    """Run `binary args -o out`; (CPU seconds, wall seconds). Exits on failure."""
-    start = time.perf_counter()
-    proc = subprocess.Popen([binary, *args, "-o", str(out)], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-    _, status, usage = os.wait4(proc.pid, 0)
-    wall = time.perf_counter() - start
-    err = proc.stderr.read().decode(errors="replace") if proc.stderr else ""
-    code = os.waitstatus_to_exitcode(status)
-    if code != 0:
-        sys.exit(f"ab: {binary} {' '.join(args)} failed (exit {code}):\n{err.strip()}")
+    """Run `binary args -o out`; (CPU seconds, wall seconds). Exits on failure. Its
+    messages go to a file, not a pipe: a pipe read only after the process ends would
+    block a process that writes more than the pipe holds."""
+    with tempfile.TemporaryFile() as err:
+        start = time.perf_counter()
+        proc = subprocess.Popen([binary, *args, "-o", str(out)], stdout=subprocess.DEVNULL, stderr=err)
+        _, status, usage = os.wait4(proc.pid, 0)
+        wall = time.perf_counter() - start
+        proc.returncode = os.waitstatus_to_exitcode(status)
+        if proc.returncode != 0:
+            err.seek(0)
+            message = err.read().decode(errors="replace").strip()
+            sys.exit(f"ab: {binary} {' '.join(args)} failed (exit {proc.returncode}):\n{message}")
     return usage.ru_utime + usage.ru_stime, wall
 
 
