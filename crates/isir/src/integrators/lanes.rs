@@ -166,7 +166,7 @@ fn path_lanes(
             // The point light's samples and shadow rays of every lane at once; each
             // lane's two numbers drawn as `next_event` draws them (a point needs none).
             for k in lanes_of(nee) {
-                samplers[k].next_2d();
+                samplers[k].skip::<2>();
             }
             batch.fill_rows(&lights[0], rows, &[Vec2::ZERO; BATCH]);
             // The lanes whose shadow rays the deferred samples trace. Lambert lanes decide
@@ -219,9 +219,13 @@ fn path_lanes(
         // other materials' lane by lane (each lane's numbers drawn as `sample_bsdf` draws
         // them).
         let lobe = kinds.lobe;
-        for k in lanes_of(lobe) {
-            let (_u_lobe, u) = (samplers[k].next_f32(), samplers[k].next_2d());
-            xi[k] = u;
+        if lobe != 0 {
+            // `u_lobe`, then `u` (the first number unused by the cosine lobe).
+            let mut u = [[0f32; LANES]; 3];
+            Sampler::draw_lanes(samplers, lobe, &mut u);
+            for k in 0..LANES {
+                xi[k] = Vec2::new(u[1][k], u[2][k]);
+            }
         }
         for k in lanes_of(going & !lobe) {
             let Some(hit) = &hits[k] else { unreachable!("a gathered lane has a hit") };
@@ -316,8 +320,9 @@ fn direct_lanes(
         }
         // ---- A point light: one sample per lane, set up together, traced together ----
         for k in (0..n).filter(|&k| hits[k].is_some()) {
-            // The sample's two numbers, drawn as one at a time draws them (a point needs none).
-            samplers[k].next_2d();
+            // The sample's two numbers, skipped as one at a time draws them (a point
+            // needs none).
+            samplers[k].skip::<2>();
         }
         let mut batch = LightLanes::EMPTY;
         batch.fill(&light_sampler, hits, &[Vec2::ZERO; BATCH]);
@@ -366,9 +371,12 @@ fn quad_few_lanes(
     let mut sum = [Color::ZERO; LANES];
     let mut xi = [Vec2::ZERO; BATCH];
     let mut batch = LightLanes::EMPTY;
+    let with_hit = hit_mask(hits);
     for _ in 0..m {
-        for k in (0..n).filter(|&k| hits[k].is_some()) {
-            xi[k] = samplers[k].next_2d();
+        let mut u = [[0f32; LANES]; 2];
+        Sampler::draw_lanes(samplers, with_hit, &mut u);
+        for k in 0..LANES {
+            xi[k] = Vec2::new(u[0][k], u[1][k]);
         }
         batch.fill(light_sampler, hits, &xi);
         let live = live_mask(&batch.live, n);
@@ -550,10 +558,9 @@ fn quad_nee_lanes(
     let lobe = LambertLanes { normal: &rows.normal, wo: back, albedo };
     let mut acc = [Color::ZERO; LANES];
     for _ in 0..n {
-        let mut xi = [Vec2::ZERO; BATCH];
-        for k in lanes_of(nee) {
-            xi[k] = samplers[k].next_2d();
-        }
+        let mut u = [[0f32; LANES]; 2];
+        Sampler::draw_lanes(samplers, nee, &mut u);
+        let xi: [Vec2; BATCH] = std::array::from_fn(|k| Vec2::new(u[0][k], u[1][k]));
         batch.fill_rows(light, rows, &xi);
         let (lobe_traced, lobe_value) = if lambert != 0 { batch.lambert_values(&lobe, n) } else { ([false; BATCH], [[0.0; BATCH]; 3]) };
         let mut f = [Color::ZERO; LANES];
@@ -578,4 +585,10 @@ fn quad_nee_lanes(
     for k in lanes_of(nee) {
         paths[k].add_light_average(acc[k], n);
     }
+}
+
+/// The lanes with a hit.
+#[inline(always)]
+fn hit_mask(hits: &[Option<Hit>; LANES]) -> u32 {
+    hits.iter().enumerate().fold(0, |m, (k, h)| m | u32::from(h.is_some()) << k)
 }
