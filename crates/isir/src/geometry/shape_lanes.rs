@@ -24,12 +24,14 @@ pub(crate) struct ShapeLanes {
     radius: [f32; LANES],
     /// The lane holds a sphere.
     sphere: [bool; LANES],
+    /// The same as a mask of lanes.
+    spheres: u32,
 }
 
 impl ShapeLanes {
     /// No shapes yet (lanes not set are planes of zero normal: their answers are not read).
     pub(crate) const EMPTY: ShapeLanes =
-        ShapeLanes { at: [[0.0; LANES]; 3], normal: [[0.0; LANES]; 3], radius: [0.0; LANES], sphere: [false; LANES] };
+        ShapeLanes { at: [[0.0; LANES]; 3], normal: [[0.0; LANES]; 3], radius: [0.0; LANES], sphere: [false; LANES], spheres: 0 };
 
     /// Lane `k` holds the sphere `s`.
     #[inline(always)]
@@ -38,6 +40,7 @@ impl ShapeLanes {
             self.at[axis][k] = s.center[axis];
         }
         (self.radius[k], self.sphere[k]) = (s.radius, true);
+        self.spheres |= 1 << k;
     }
 
     /// Lane `k` holds the plane `p`.
@@ -48,6 +51,7 @@ impl ShapeLanes {
             self.normal[axis][k] = p.normal[axis];
         }
         self.sphere[k] = false;
+        self.spheres &= !(1 << k);
     }
 
     /// Each lane's hit of its shape by the ray of `rays` at `t`: what `Scene::intersect`
@@ -57,26 +61,45 @@ impl ShapeLanes {
     /// on the side the normal points to.
     /// PERF: written into the rows the path tracer keeps: as an array of its own, each
     /// bounce's was zeroed, then copied into the rows.
+    /// PERF: lanes of planes alone skip the spheres' square roots and divisions (TP4's
+    /// rooms, whose walls are planes beside a mesh).
     pub(crate) fn hits(&self, rays: &RayLanes, t: &[f32; LANES], mask: u32, rows: &mut HitRows) -> [bool; LANES] {
+        let spheres = self.spheres & mask != 0;
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
             #[target_feature(enable = "avx2")]
             fn hits_avx2(shapes: &ShapeLanes, rays: &RayLanes, t: &[f32; LANES], mask: u32, rows: &mut HitRows) -> [bool; LANES] {
-                shapes.hits_portable(rays, t, mask, rows)
+                shapes.hits_portable::<true>(rays, t, mask, rows)
             }
-            // SAFETY: the CPU has AVX2, which is all `hits_avx2` is compiled for.
-            return unsafe { hits_avx2(self, rays, t, mask, rows) };
+            #[target_feature(enable = "avx2")]
+            fn planes_avx2(shapes: &ShapeLanes, rays: &RayLanes, t: &[f32; LANES], mask: u32, rows: &mut HitRows) -> [bool; LANES] {
+                shapes.hits_portable::<false>(rays, t, mask, rows)
+            }
+            // SAFETY: the CPU has AVX2, which is all `hits_avx2` and `planes_avx2` are
+            // compiled for.
+            return unsafe {
+                if spheres {
+                    hits_avx2(self, rays, t, mask, rows)
+                } else {
+                    planes_avx2(self, rays, t, mask, rows)
+                }
+            };
         }
-        self.hits_portable(rays, t, mask, rows)
+        if spheres {
+            self.hits_portable::<true>(rays, t, mask, rows)
+        } else {
+            self.hits_portable::<false>(rays, t, mask, rows)
+        }
     }
 
     /// The operations of `Ray::at`, `Sphere::surface_point`, `Sphere::normal`,
     /// `Plane::surface_point` (and glam's `length`, `dot`, `abs` and `max_element` inside
     /// them) and `Scene::interaction_given`'s facing, in their order; both kinds computed
-    /// in every lane, each lane's kept by a select.
+    /// in every lane, each lane's kept by a select; without `SPHERES` (no lane of `mask`
+    /// holds a sphere) the planes' alone.
     #[inline(always)]
     #[allow(clippy::needless_range_loop)] // one index into many arrays: the loops vectorise
-    fn hits_portable(&self, rays: &RayLanes, t: &[f32; LANES], mask: u32, rows: &mut HitRows) -> [bool; LANES] {
+    fn hits_portable<const SPHERES: bool>(&self, rays: &RayLanes, t: &[f32; LANES], mask: u32, rows: &mut HitRows) -> [bool; LANES] {
         let mut front = [false; LANES];
         let (o, d, c, n, r) = (&rays.o, &rays.d, &self.at, &self.normal, &self.radius);
         let (g1, g5, g8) = (gamma(1), gamma(5), gamma(8));
@@ -108,7 +131,7 @@ impl ShapeLanes {
             let dn = rel[0] * n[0][j] + rel[1] * n[1][j] + rel[2] * n[2][j];
             let pp = [q[0] - n[0][j] * dn, q[1] - n[1][j] * dn, q[2] - n[2][j] * dn];
             let m = max(rel[0].abs(), max(rel[1].abs(), rel[2].abs()));
-            let s = self.sphere[j];
+            let s = SPHERES && self.sphere[j];
             let mut nn = [0f32; 3];
             for axis in 0..3 {
                 let es = g5 * l[axis].abs() + g1 * ps[axis].abs();
@@ -143,7 +166,8 @@ mod tests {
     /// `Sphere::normal`, `Plane::surface_point` and the plane's normal, faced as
     /// `Scene::interaction_given` faces them; spheres and planes mixed across the lanes,
     /// near and far, hit from either side, and points at a sphere's centre (no length to
-    /// scale), on both code paths.
+    /// scale), on both code paths; every fourth round planes alone (the path without the
+    /// spheres' arithmetic).
     #[test]
     fn shape_lanes_are_the_hits_of_one_at_a_time() {
         let mut rng = Sampler::from_seed(5);
@@ -161,7 +185,7 @@ mod tests {
                 let ray = Ray::new(origin, direction);
                 t[k] = r().abs() * scale;
                 rays.set(k, origin, direction, 0.0, f32::INFINITY);
-                let (point, error, normal) = if (round + k) % 3 == 0 {
+                let (point, error, normal) = if round % 4 == 3 || (round + k) % 3 == 0 {
                     let p = Plane::new(Vec3::new(r(), r(), r()) * scale, Vec3::new(r(), r(), r()).normalize_or(Vec3::Y));
                     shapes.set_plane(k, &p);
                     let (point, error) = p.surface_point(&ray, t[k]);
@@ -179,12 +203,18 @@ mod tests {
             }
             // Every lane but one (which must hold zeros).
             let (mask, out) = (!(1u32 << (round % LANES)) & 0xffff, round % LANES);
-            let (mut portable, mut dispatched) = (HitRows::default(), HitRows::default());
-            let front_portable = shapes.hits_portable(&rays, &t, mask, &mut portable);
+            let (mut portable, mut dispatched, mut planes) = (HitRows::default(), HitRows::default(), HitRows::default());
+            let front_portable = shapes.hits_portable::<true>(&rays, &t, mask, &mut portable);
             let front_dispatched = shapes.hits(&rays, &t, mask, &mut dispatched);
+            let planes_only = round % 4 == 3;
+            assert_eq!(shapes.spheres == 0, planes_only);
+            let front_planes = if planes_only { shapes.hits_portable::<false>(&rays, &t, mask, &mut planes) } else { front_portable };
+            if !planes_only {
+                planes = portable.clone();
+            }
             let at = |a: &[[f32; LANES]; 3], k: usize| Vec3::new(a[0][k], a[1][k], a[2][k]);
             for (k, (point, error, facing, front)) in expected.into_iter().enumerate() {
-                for (got, got_front) in [(&portable, front_portable), (&dispatched, front_dispatched)] {
+                for (got, got_front) in [(&portable, front_portable), (&dispatched, front_dispatched), (&planes, front_planes)] {
                     let (p, e, ng, n) = (at(&got.surface.p, k), at(&got.surface.p_error, k), at(&got.surface.ng, k), at(&got.normal, k));
                     let row = (bits(p), bits(e), bits(ng), bits(n));
                     if k == out {
