@@ -206,93 +206,27 @@ impl Scene {
         // them.
         if self.flat().is_some() {
             let mut shapes = ShapeLanes::EMPTY;
-            let mut lanes = 0u32;
-            for k in 0..count.min(LANES) {
-                let i = hits.object[k];
-                if i == NO_OBJECT {
-                    continue;
-                }
-                match &self.objects[i as usize].geometry {
-                    Geometry::Sphere(s) => shapes.set_sphere(k, s),
-                    Geometry::Plane(p) => shapes.set_plane(k, p),
-                    _ => unreachable!("a flat scene is spheres and planes"),
-                }
-                lanes |= 1 << k;
-            }
+            let lanes = self.shape_lanes(hits, count, &mut shapes);
             let mut own = None;
             let rows = match rows {
                 Some(rows) => rows,
                 None => own.insert(HitRows::default()),
             };
-            let front = shapes.hits(rays, &hits.t, lanes, rows);
-            let at = |a: &[[f32; LANES]; 3], k: usize| glam::Vec3::new(a[0][k], a[1][k], a[2][k]);
-            for k in lanes_of(lanes) {
-                let i = hits.object[k] as usize;
-                let o = &self.objects[i];
-                let (point, point_error, normal) = (at(&rows.surface.p, k), at(&rows.surface.p_error, k), at(&rows.normal, k));
-                out[k] = Some(Hit {
-                    t: hits.t[k],
-                    point,
-                    point_error,
-                    normal,
-                    geometric_normal: normal,
-                    front_face: front[k],
-                    object: i as u32,
-                    prim: hits.prim[k],
-                    u: hits.u[k],
-                    v: hits.v[k],
-                    uv: glam::Vec2::ZERO,
-                    // `interaction_given`'s material: slot 0 of the object's.
-                    material: o.materials[0],
-                });
-            }
+            self.shape_hits_into(&shapes, lanes, rays, hits, rows, out);
             return;
         }
         // A scene of meshes beside spheres and planes (TP4's rooms): the lanes that met a
-        // sphere or a plane, when there are enough of them, built from `ShapeLanes` rows
-        // as in a flat scene; the others below, one by one. PERF: with planes alone
-        // skipping the spheres' arithmetic (`ShapeLanes::hits`), tp4-bunny 0.986 of the CPU
-        // time (64 and 256 spp), tp4-sphere 0.989; computing the spheres' too, 1.02.
+        // sphere or a plane, when there are enough of them, built as in a flat scene; the
+        // others below, one by one. PERF: with planes alone skipping the spheres'
+        // arithmetic (`ShapeLanes::hits`), tp4-bunny 0.986 of the CPU time (64 and 256
+        // spp), tp4-sphere 0.989; computing the spheres' too, 1.02.
         let mut shape_lanes = 0u32;
         if geometry.is_none() {
             let mut shapes = ShapeLanes::EMPTY;
-            for k in 0..count.min(LANES) {
-                let i = hits.object[k];
-                if i == NO_OBJECT {
-                    continue;
-                }
-                match &self.objects[i as usize].geometry {
-                    Geometry::Sphere(s) => shapes.set_sphere(k, s),
-                    Geometry::Plane(p) => shapes.set_plane(k, p),
-                    _ => continue,
-                }
-                shape_lanes |= 1 << k;
-            }
-            if shape_lanes.count_ones() >= SHAPE_LANES_FROM {
-                let mut shape_rows = HitRows::default();
-                let front = shapes.hits(rays, &hits.t, shape_lanes, &mut shape_rows);
-                let at = |a: &[[f32; LANES]; 3], k: usize| glam::Vec3::new(a[0][k], a[1][k], a[2][k]);
-                for k in lanes_of(shape_lanes) {
-                    let i = hits.object[k] as usize;
-                    let normal = at(&shape_rows.normal, k);
-                    out[k] = Some(Hit {
-                        t: hits.t[k],
-                        point: at(&shape_rows.surface.p, k),
-                        point_error: at(&shape_rows.surface.p_error, k),
-                        normal,
-                        geometric_normal: normal,
-                        front_face: front[k],
-                        object: i as u32,
-                        prim: hits.prim[k],
-                        u: hits.u[k],
-                        v: hits.v[k],
-                        uv: glam::Vec2::ZERO,
-                        // `interaction_given`'s material: slot 0 of the object's.
-                        material: self.objects[i].materials[0],
-                    });
-                }
-            } else {
-                shape_lanes = 0;
+            let lanes = self.shape_lanes(hits, count, &mut shapes);
+            if lanes.count_ones() >= SHAPE_LANES_FROM {
+                self.shape_hits_into(&shapes, lanes, rays, hits, &mut HitRows::default(), out);
+                shape_lanes = lanes;
             }
         }
         // Its own loop: one loop taking an optional geometry made tp4-sphere 2% slower.
@@ -312,6 +246,63 @@ impl Scene {
         }
         if let Some(rows) = rows {
             *rows = HitRows::of(out);
+        }
+    }
+
+    /// The lanes (below `count`) whose hit is on a sphere or a plane, those shapes set in
+    /// their lanes of `shapes`. PERF: `shapes` filled in place: returned by value, its
+    /// copy (`memmove`) made tp1-sphere 4% slower.
+    #[inline(always)]
+    fn shape_lanes(&self, hits: &LaneHits, count: usize, shapes: &mut ShapeLanes) -> u32 {
+        let mut lanes = 0u32;
+        for k in 0..count.min(LANES) {
+            let i = hits.object[k];
+            if i == NO_OBJECT {
+                continue;
+            }
+            match &self.objects[i as usize].geometry {
+                Geometry::Sphere(s) => shapes.set_sphere(k, s),
+                Geometry::Plane(p) => shapes.set_plane(k, p),
+                _ => continue,
+            }
+            lanes |= 1 << k;
+        }
+        lanes
+    }
+
+    /// The hits of the sphere and plane lanes `lanes` (their `shapes`): their points, error
+    /// bounds and normals for all the lanes at once (SIMD, into `rows`), then each hit
+    /// built around them into `out`.
+    #[inline(always)]
+    fn shape_hits_into(
+        &self,
+        shapes: &ShapeLanes,
+        lanes: u32,
+        rays: &RayLanes,
+        hits: &LaneHits,
+        rows: &mut HitRows,
+        out: &mut [Option<Hit>; LANES],
+    ) {
+        let front = shapes.hits(rays, &hits.t, lanes, rows);
+        let at = |a: &[[f32; LANES]; 3], k: usize| glam::Vec3::new(a[0][k], a[1][k], a[2][k]);
+        for k in lanes_of(lanes) {
+            let i = hits.object[k] as usize;
+            let (point, point_error, normal) = (at(&rows.surface.p, k), at(&rows.surface.p_error, k), at(&rows.normal, k));
+            out[k] = Some(Hit {
+                t: hits.t[k],
+                point,
+                point_error,
+                normal,
+                geometric_normal: normal,
+                front_face: front[k],
+                object: i as u32,
+                prim: hits.prim[k],
+                u: hits.u[k],
+                v: hits.v[k],
+                uv: glam::Vec2::ZERO,
+                // `interaction_given`'s material: slot 0 of the object's.
+                material: self.objects[i].materials[0],
+            });
         }
     }
 }
