@@ -572,6 +572,8 @@ mod tests {
                 |s, m, o| unsafe { Sampler::draw_lanes_avx512(s, m & ((1 << s.len()) - 1), o) },
                 |s, m, o| unsafe { Sampler::draw_lanes_avx512(s, m & ((1 << s.len()) - 1), o) },
             ));
+        } else {
+            eprintln!("no AVX-512 DQ/VL on this CPU: draw_lanes runs its portable loop, tested here");
         }
         for (name, one, two, three) in paths {
             for round in 0..20 {
