@@ -167,7 +167,8 @@ mod tests {
     /// `Scene::interaction_given` faces them; spheres and planes mixed across the lanes,
     /// near and far, hit from either side, and points at a sphere's centre (no length to
     /// scale), on both code paths; every fourth round planes alone (the path without the
-    /// spheres' arithmetic).
+    /// spheres' arithmetic; half of those planes set over a sphere first), and in another
+    /// fourth of the rounds a sphere only in the lane outside the mask (the same path).
     #[test]
     fn shape_lanes_are_the_hits_of_one_at_a_time() {
         let mut rng = Sampler::from_seed(5);
@@ -185,7 +186,16 @@ mod tests {
                 let ray = Ray::new(origin, direction);
                 t[k] = r().abs() * scale;
                 rays.set(k, origin, direction, 0.0, f32::INFINITY);
-                let (point, error, normal) = if round % 4 == 3 || (round + k) % 3 == 0 {
+                let plane = match round % 4 {
+                    3 => true,
+                    1 => k != round % LANES,
+                    _ => (round + k) % 3 == 0,
+                };
+                let (point, error, normal) = if plane {
+                    if round % 4 == 3 && k % 2 == 0 {
+                        // A sphere first, replaced by the plane.
+                        shapes.set_sphere(k, &Sphere::new(Vec3::new(r(), r(), r()), 1.0));
+                    }
                     let p = Plane::new(Vec3::new(r(), r(), r()) * scale, Vec3::new(r(), r(), r()).normalize_or(Vec3::Y));
                     shapes.set_plane(k, &p);
                     let (point, error) = p.surface_point(&ray, t[k]);
@@ -206,8 +216,8 @@ mod tests {
             let (mut portable, mut dispatched, mut planes) = (HitRows::default(), HitRows::default(), HitRows::default());
             let front_portable = shapes.hits_portable::<true>(&rays, &t, mask, &mut portable);
             let front_dispatched = shapes.hits(&rays, &t, mask, &mut dispatched);
-            let planes_only = round % 4 == 3;
-            assert_eq!(shapes.spheres == 0, planes_only);
+            let planes_only = round % 4 == 3 || round % 4 == 1;
+            assert_eq!(shapes.spheres & mask == 0, planes_only);
             let front_planes = if planes_only { shapes.hits_portable::<false>(&rays, &t, mask, &mut planes) } else { front_portable };
             if !planes_only {
                 planes = portable.clone();

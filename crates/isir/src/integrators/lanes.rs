@@ -164,7 +164,7 @@ fn path_lanes(
         let nee = going & !kinds.delta;
         if defer {
             // The point light's samples and shadow rays of every lane at once; each
-            // lane's two numbers drawn as `next_event` draws them (a point needs none).
+            // lane's two numbers skipped as `next_event` draws them (a point needs none).
             for k in lanes_of(nee) {
                 samplers[k].skip::<2>();
             }
@@ -223,9 +223,7 @@ fn path_lanes(
             // `u_lobe`, then `u` (the first number unused by the cosine lobe).
             let mut u = [[0f32; LANES]; 3];
             Sampler::draw_lanes(samplers, lobe, &mut u);
-            for k in 0..LANES {
-                xi[k] = Vec2::new(u[1][k], u[2][k]);
-            }
+            xi = std::array::from_fn(|k| Vec2::new(u[1][k], u[2][k]));
         }
         for k in lanes_of(going & !lobe) {
             let Some(hit) = &hits[k] else { unreachable!("a gathered lane has a hit") };
@@ -369,15 +367,12 @@ fn quad_few_lanes(
 ) {
     let n = samplers.len();
     let mut sum = [Color::ZERO; LANES];
-    let mut xi = [Vec2::ZERO; BATCH];
     let mut batch = LightLanes::EMPTY;
-    let with_hit = hit_mask(hits);
+    let with_hit = lane_mask(&std::array::from_fn(|k| hits[k].is_some()));
     for _ in 0..m {
         let mut u = [[0f32; LANES]; 2];
         Sampler::draw_lanes(samplers, with_hit, &mut u);
-        for k in 0..LANES {
-            xi[k] = Vec2::new(u[0][k], u[1][k]);
-        }
+        let xi: [Vec2; BATCH] = std::array::from_fn(|k| Vec2::new(u[0][k], u[1][k]));
         batch.fill(light_sampler, hits, &xi);
         let live = live_mask(&batch.live, n);
         counters.shadow += u64::from(live.count_ones());
@@ -585,10 +580,4 @@ fn quad_nee_lanes(
     for k in lanes_of(nee) {
         paths[k].add_light_average(acc[k], n);
     }
-}
-
-/// The lanes with a hit.
-#[inline(always)]
-fn hit_mask(hits: &[Option<Hit>; LANES]) -> u32 {
-    hits.iter().enumerate().fold(0, |m, (k, h)| m | u32::from(h.is_some()) << k)
 }

@@ -101,11 +101,14 @@ impl Sampler {
         self.fill_2d_portable(out);
     }
 
-    /// Whether this CPU runs [`Sampler::fill_2d_avx512`] (AVX-512 DQ and VL).
+    /// Whether this CPU runs [`Sampler::fill_2d_avx512`] and [`Sampler::draw_lanes_avx512`]
+    /// (AVX-512 F, DQ and VL).
     #[cfg(target_arch = "x86_64")]
     #[inline]
     fn has_avx512_fill() -> bool {
-        std::arch::is_x86_feature_detected!("avx512dq") && std::arch::is_x86_feature_detected!("avx512vl")
+        std::arch::is_x86_feature_detected!("avx512f")
+            && std::arch::is_x86_feature_detected!("avx512dq")
+            && std::arch::is_x86_feature_detected!("avx512vl")
     }
 
     /// [`Sampler::fill_2d`] on eight chains of eight steps (`s ↦ MUL⁸·s + inc·SUM₈`), the
@@ -532,8 +535,11 @@ mod tests {
         fn check<const N: usize>(name: &str, draw: Draw<N>, round: u32) {
             let mut masks = Sampler::from_seed(u64::from(round));
             for n in 0..=LANES {
-                let mut ours: Vec<Sampler> = (0..n).map(|k| pixel_rng(u64::from(round), k as u64, round)).collect();
-                let mut theirs = ours.clone();
+                // Each generator its own stream (increment), sixteen of them, the first
+                // `n` given to the draw: those past it must stay as they are.
+                let mut all: Vec<Sampler> = (0..LANES).map(|k| pixel_rng(u64::from(round), k as u64, round * 16 + k as u32)).collect();
+                let untouched = all[n..].to_vec();
+                let mut theirs = all[..n].to_vec();
                 for step in 0..6 {
                     let mask = match step {
                         0 => u32::MAX,
@@ -541,7 +547,8 @@ mod tests {
                         _ => masks.next_f32().to_bits() ^ (masks.next_f32().to_bits() << 9),
                     };
                     let mut out = [[f32::NAN; LANES]; N];
-                    draw(&mut ours, mask, &mut out);
+                    let ours = &mut all[..n];
+                    draw(ours, mask, &mut out);
                     for k in 0..n {
                         if mask & (1 << k) != 0 {
                             for (j, row) in out.iter().enumerate() {
@@ -553,6 +560,9 @@ mod tests {
                             }
                         }
                         assert_eq!((ours[k].state, ours[k].inc), (theirs[k].state, theirs[k].inc), "{name}: lane {k} left elsewhere");
+                    }
+                    for (a, b) in all[n..].iter().zip(&untouched) {
+                        assert_eq!((a.state, a.inc), (b.state, b.inc), "{name}: a generator past the {n} given was changed");
                     }
                 }
             }

@@ -221,7 +221,7 @@ impl Scene {
         // arithmetic (`ShapeLanes::hits`), tp4-bunny 0.986 of the CPU time (64 and 256
         // spp), tp4-sphere 0.989; computing the spheres' too, 1.02.
         let mut shape_lanes = 0u32;
-        if geometry.is_none() {
+        if geometry.is_none() && self.only_mesh().is_none() {
             let mut shapes = ShapeLanes::EMPTY;
             let lanes = self.shape_lanes(hits, count, &mut shapes);
             if lanes.count_ones() >= SHAPE_LANES_FROM {
@@ -263,7 +263,10 @@ impl Scene {
             match &self.objects[i as usize].geometry {
                 Geometry::Sphere(s) => shapes.set_sphere(k, s),
                 Geometry::Plane(p) => shapes.set_plane(k, p),
-                _ => continue,
+                _ => {
+                    debug_assert!(self.flat().is_none(), "a flat scene is spheres and planes");
+                    continue;
+                }
             }
             lanes |= 1 << k;
         }
