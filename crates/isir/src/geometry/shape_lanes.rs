@@ -11,7 +11,7 @@
 //! most of the cost left is building and reading the hits themselves.
 
 use super::{HitRows, Plane, Sphere};
-use crate::math::ray::{gamma, RayLanes, LANES};
+use crate::math::ray::{gamma, lane_mask, RayLanes, LANES};
 
 /// Sixteen lanes' shapes, as arrays (`[axis][lane]`): a sphere's centre and radius, or a
 /// plane's point and normal.
@@ -24,14 +24,12 @@ pub(crate) struct ShapeLanes {
     radius: [f32; LANES],
     /// The lane holds a sphere.
     sphere: [bool; LANES],
-    /// The same as a mask of lanes.
-    spheres: u32,
 }
 
 impl ShapeLanes {
     /// No shapes yet (lanes not set are planes of zero normal: their answers are not read).
     pub(crate) const EMPTY: ShapeLanes =
-        ShapeLanes { at: [[0.0; LANES]; 3], normal: [[0.0; LANES]; 3], radius: [0.0; LANES], sphere: [false; LANES], spheres: 0 };
+        ShapeLanes { at: [[0.0; LANES]; 3], normal: [[0.0; LANES]; 3], radius: [0.0; LANES], sphere: [false; LANES] };
 
     /// Lane `k` holds the sphere `s`.
     #[inline(always)]
@@ -40,7 +38,6 @@ impl ShapeLanes {
             self.at[axis][k] = s.center[axis];
         }
         (self.radius[k], self.sphere[k]) = (s.radius, true);
-        self.spheres |= 1 << k;
     }
 
     /// Lane `k` holds the plane `p`.
@@ -51,7 +48,6 @@ impl ShapeLanes {
             self.normal[axis][k] = p.normal[axis];
         }
         self.sphere[k] = false;
-        self.spheres &= !(1 << k);
     }
 
     /// Each lane's hit of its shape by the ray of `rays` at `t`: what `Scene::intersect`
@@ -64,7 +60,7 @@ impl ShapeLanes {
     /// PERF: lanes of planes alone skip the spheres' square roots and divisions (TP4's
     /// rooms, whose walls are planes beside a mesh).
     pub(crate) fn hits(&self, rays: &RayLanes, t: &[f32; LANES], mask: u32, rows: &mut HitRows) -> [bool; LANES] {
-        let spheres = self.spheres & mask != 0;
+        let spheres = lane_mask(&self.sphere) & mask != 0;
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
             #[target_feature(enable = "avx2")]
@@ -217,7 +213,7 @@ mod tests {
             let front_portable = shapes.hits_portable::<true>(&rays, &t, mask, &mut portable);
             let front_dispatched = shapes.hits(&rays, &t, mask, &mut dispatched);
             let planes_only = round % 4 == 3 || round % 4 == 1;
-            assert_eq!(shapes.spheres & mask == 0, planes_only);
+            assert_eq!(lane_mask(&shapes.sphere) & mask == 0, planes_only);
             let front_planes = if planes_only { shapes.hits_portable::<false>(&rays, &t, mask, &mut planes) } else { front_portable };
             if !planes_only {
                 planes = portable.clone();

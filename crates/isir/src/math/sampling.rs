@@ -120,9 +120,8 @@ impl Sampler {
     #[target_feature(enable = "avx512f,avx512dq,avx512vl")]
     fn fill_2d_avx512(&mut self, out: &mut [glam::Vec2]) {
         use std::arch::x86_64::{
-            _mm256_cvtepi32_ps, _mm256_mul_ps, _mm256_rorv_epi32, _mm256_set1_ps, _mm256_srli_epi32, _mm256_storeu_ps, _mm512_add_epi64,
-            _mm512_castsi512_si128, _mm512_cvtepi64_epi32, _mm512_loadu_si512, _mm512_mullo_epi64, _mm512_set1_epi64, _mm512_srli_epi64,
-            _mm512_storeu_si512, _mm512_xor_si512, _mm_cvtsi128_si64,
+            _mm256_storeu_ps, _mm512_add_epi64, _mm512_castsi512_si128, _mm512_loadu_si512, _mm512_mullo_epi64, _mm512_set1_epi64,
+            _mm512_storeu_si512, _mm_cvtsi128_si64,
         };
         const J: [(u64, u64); 9] = [jump(0), jump(1), jump(2), jump(3), jump(4), jump(5), jump(6), jump(7), jump(8)];
         const J_MUL: [u64; 8] = [J[0].0, J[1].0, J[2].0, J[3].0, J[4].0, J[5].0, J[6].0, J[7].0];
@@ -136,16 +135,12 @@ impl Sampler {
         // Chain `k` starts `k` steps on: `MUL^k·s + inc·SUM_k`.
         let mut st = _mm512_add_epi64(_mm512_mullo_epi64(_mm512_set1_epi64(self.state as i64), j_mul), _mm512_mullo_epi64(inc, j_sum));
         let (m8, c8) = (_mm512_set1_epi64(J[8].0 as i64), _mm512_set1_epi64(self.inc.wrapping_mul(J[8].1) as i64));
-        let scale = _mm256_set1_ps(1.0 / (1u32 << 24) as f32);
         let mut fours = out.chunks_exact_mut(4);
         for four in &mut fours {
-            // `output`: XSH RR of the eight states, then `unit`.
-            let xsh = _mm512_cvtepi64_epi32(_mm512_srli_epi64::<27>(_mm512_xor_si512(_mm512_srli_epi64::<18>(st), st)));
-            let x = _mm256_rorv_epi32(xsh, _mm512_cvtepi64_epi32(_mm512_srli_epi64::<59>(st)));
-            let f = _mm256_mul_ps(scale, _mm256_cvtepi32_ps(_mm256_srli_epi32::<8>(x)));
-            // SAFETY: `four` is four `Vec2`s, eight contiguous `f32`s (`Vec2` is
-            // `repr(C)` x then y): pair `i` gets chains `2i` and `2i + 1`.
-            unsafe { _mm256_storeu_ps(four.as_mut_ptr().cast(), f) };
+            // SAFETY: this function has AVX-512 F and VL; `four` is four `Vec2`s, eight
+            // contiguous `f32`s (`Vec2` is `repr(C)` x then y): pair `i` gets chains `2i`
+            // and `2i + 1`.
+            unsafe { _mm256_storeu_ps(four.as_mut_ptr().cast(), unit8(st)) };
             st = _mm512_add_epi64(_mm512_mullo_epi64(st, m8), c8);
         }
         let rest = fours.into_remainder();
@@ -184,7 +179,7 @@ impl Sampler {
     #[inline]
     pub fn draw_lanes<const N: usize>(samplers: &mut [Sampler], mask: u32, out: &mut [[f32; LANES]; N]) {
         let n = samplers.len().min(LANES);
-        let mask = mask & (u32::MAX >> (32 - LANES)) & ((1u32 << n) - 1);
+        let mask = mask & ((1u32 << n) - 1);
         if mask == 0 {
             return;
         }
@@ -238,18 +233,13 @@ impl Sampler {
         let start = [_mm512_permutex2var_epi64(a0, even, a1), _mm512_permutex2var_epi64(a2, even, a3)];
         let inc = [_mm512_permutex2var_epi64(a0, odd, a1), _mm512_permutex2var_epi64(a2, odd, a3)];
         let mul = _mm512_set1_epi64(MUL as i64);
-        let scale = _mm256_set1_ps(1.0 / (1u32 << 24) as f32);
         let mut st = start;
         for row in out.iter_mut() {
             for h in 0..2 {
-                // `output` (XSH RR), then `unit`, eight lanes at once.
-                let s = st[h];
-                let xsh = _mm512_cvtepi64_epi32(_mm512_srli_epi64::<27>(_mm512_xor_si512(_mm512_srli_epi64::<18>(s), s)));
-                let x = _mm256_rorv_epi32(xsh, _mm512_cvtepi64_epi32(_mm512_srli_epi64::<59>(s)));
-                let f = _mm256_mul_ps(scale, _mm256_cvtepi32_ps(_mm256_srli_epi32::<8>(x)));
-                // SAFETY: eight floats of a sixteen-float row, at 0 or 8.
-                unsafe { _mm256_storeu_ps(row.as_mut_ptr().add(8 * h), f) };
-                st[h] = _mm512_add_epi64(_mm512_mullo_epi64(s, mul), inc[h]);
+                // SAFETY: this function has AVX-512 F and VL; eight floats of a
+                // sixteen-float row, at 0 or 8.
+                unsafe { _mm256_storeu_ps(row.as_mut_ptr().add(8 * h), unit8(st[h])) };
+                st[h] = _mm512_add_epi64(_mm512_mullo_epi64(st[h], mul), inc[h]);
             }
         }
         // The lanes drawn keep their new states; the others their old ones.
@@ -289,6 +279,23 @@ impl Sampler {
         } else {
             self.state = st[0];
         }
+    }
+}
+
+/// [`unit`] of [`output`] of eight states at once (AVX-512: XSH RR's shifts, the
+/// narrowing and the rotation `vprorvd`, then the conversion), the same floats.
+///
+/// # Safety
+/// The CPU must have AVX-512 F and VL.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn unit8(s: std::arch::x86_64::__m512i) -> std::arch::x86_64::__m256 {
+    use std::arch::x86_64::*;
+    // SAFETY: the caller guarantees AVX-512 F and VL.
+    unsafe {
+        let xsh = _mm512_cvtepi64_epi32(_mm512_srli_epi64::<27>(_mm512_xor_si512(_mm512_srli_epi64::<18>(s), s)));
+        let x = _mm256_rorv_epi32(xsh, _mm512_cvtepi64_epi32(_mm512_srli_epi64::<59>(s)));
+        _mm256_mul_ps(_mm256_set1_ps(1.0 / (1u32 << 24) as f32), _mm256_cvtepi32_ps(_mm256_srli_epi32::<8>(x)))
     }
 }
 
@@ -567,21 +574,20 @@ mod tests {
                 }
             }
         }
+        // The two paths called directly, the mask cut to the generators as `draw_lanes` cuts it.
+        fn portable<const N: usize>(s: &mut [Sampler], m: u32, o: &mut [[f32; LANES]; N]) {
+            Sampler::draw_lanes_portable(s, m & ((1 << s.len()) - 1), o);
+        }
+        #[cfg(target_arch = "x86_64")]
+        fn avx512<const N: usize>(s: &mut [Sampler], m: u32, o: &mut [[f32; LANES]; N]) {
+            // SAFETY: only pushed below where the CPU has AVX-512 F, DQ and VL.
+            unsafe { Sampler::draw_lanes_avx512(s, m & ((1 << s.len()) - 1), o) };
+        }
         let mut paths: Vec<(&str, Draw<1>, Draw<2>, Draw<3>)> =
-            vec![("draw_lanes", Sampler::draw_lanes, Sampler::draw_lanes, Sampler::draw_lanes)];
-        let portable = |s: &mut [Sampler], m: u32, o: &mut [[f32; LANES]; 1]| Sampler::draw_lanes_portable(s, m & ((1 << s.len()) - 1), o);
-        let portable2 = |s: &mut [Sampler], m: u32, o: &mut [[f32; LANES]; 2]| Sampler::draw_lanes_portable(s, m & ((1 << s.len()) - 1), o);
-        let portable3 = |s: &mut [Sampler], m: u32, o: &mut [[f32; LANES]; 3]| Sampler::draw_lanes_portable(s, m & ((1 << s.len()) - 1), o);
-        paths.push(("portable", portable, portable2, portable3));
+            vec![("draw_lanes", Sampler::draw_lanes, Sampler::draw_lanes, Sampler::draw_lanes), ("portable", portable, portable, portable)];
         #[cfg(target_arch = "x86_64")]
         if Sampler::has_avx512_fill() {
-            // SAFETY (each): the CPU has AVX-512 DQ and VL; the mask is cut to the generators.
-            paths.push((
-                "avx512",
-                |s, m, o| unsafe { Sampler::draw_lanes_avx512(s, m & ((1 << s.len()) - 1), o) },
-                |s, m, o| unsafe { Sampler::draw_lanes_avx512(s, m & ((1 << s.len()) - 1), o) },
-                |s, m, o| unsafe { Sampler::draw_lanes_avx512(s, m & ((1 << s.len()) - 1), o) },
-            ));
+            paths.push(("avx512", avx512, avx512, avx512));
         } else {
             eprintln!("no AVX-512 DQ/VL on this CPU: draw_lanes runs its portable loop, tested here");
         }

@@ -221,7 +221,7 @@ impl Scene {
         // arithmetic (`ShapeLanes::hits`), tp4-bunny 0.986 of the CPU time (64 and 256
         // spp), tp4-sphere 0.989; computing the spheres' too, 1.02.
         let mut shape_lanes = 0u32;
-        if geometry.is_none() && self.only_mesh().is_none() {
+        if self.only_mesh().is_none() {
             let mut shapes = ShapeLanes::EMPTY;
             let lanes = self.shape_lanes(hits, count, &mut shapes);
             if lanes.count_ones() >= SHAPE_LANES_FROM {
