@@ -282,7 +282,7 @@ impl Sampler {
     }
 }
 
-/// [`unit`] of [`output`] of eight states at once (AVX-512: XSH RR's shifts, the
+/// [`unit()`] of [`output`] of eight states at once (AVX-512: XSH RR's shifts, the
 /// narrowing and the rotation `vprorvd`, then the conversion), the same floats.
 ///
 /// # Safety
