@@ -266,6 +266,112 @@ fn packets_return_the_same_hits_as_single_rays() {
     }
 }
 
+/// Camera rays from views all around the conference room (one origin per packet: the
+/// AVX-512 packets cull the child boxes their frustum misses before testing each ray),
+/// among them the one under the table whose rays meet chair legs, traced as packets: the
+/// hits of single rays. `tools/bench-views/` holds the same views as scene files.
+#[test]
+fn camera_packets_from_every_view_return_the_single_rays_hits() {
+    use isir::rays::{generate, trace_mesh, trace_mesh_packets, HitRecord, RayKind};
+    use isir::scenes::CameraDesc;
+    let desc = isir::scenes::builtin("tp4-conference").unwrap();
+    let scene = desc.build(Accel::BvhSah).unwrap();
+    let (_, mesh) = scene.meshes().next().unwrap();
+    let views = [
+        (Vec3::new(600.0, 300.0, -100.0), Vec3::new(-300.0, 150.0, 200.0)),
+        (Vec3::new(0.0, 150.0, 0.0), Vec3::new(400.0, 100.0, -200.0)),
+        (Vec3::new(-400.0, 550.0, -250.0), Vec3::new(200.0, 0.0, 150.0)),
+        // Far outside the room, a narrow field: the origin's large coordinates (the slab
+        // tests' rounding).
+        (Vec3::new(9000.0, 4000.0, -7000.0), Vec3::new(0.0, 200.0, 0.0)),
+    ];
+    for (v, (position, look_at)) in views.into_iter().enumerate() {
+        let fovy = if v == 3 { 8.0 } else { 60.0 };
+        let camera = CameraDesc { fovy, ..CameraDesc::new(position, look_at) }.build(1.5);
+        let rays = generate(&scene, &camera, 96, 64, RayKind::Primary, 1).unwrap();
+        let mut single = vec![HitRecord::MISS; rays.len()];
+        let mut packed = single.clone();
+        for level in SimdLevel::available() {
+            let mut m = mesh.clone();
+            assert!(m.set_simd_level(level));
+            trace_mesh(&m, &rays, false, &mut single);
+            trace_mesh_packets(&m, &rays, &mut packed);
+            let mut ties = 0;
+            for (i, (s, p)) in single.iter().zip(&packed).enumerate() {
+                if level == SimdLevel::Avx512 && s.prim != p.prim {
+                    // AVX-512 packets report either of two triangles at exactly one distance.
+                    assert_eq!(s.t.to_bits(), p.t.to_bits(), "view {v}, {level:?} ray {i}: {s:?} vs {p:?}");
+                    ties += 1;
+                    continue;
+                }
+                assert_eq!(s, p, "view {v}, {level:?} ray {i}");
+            }
+            assert!(ties * 1000 < rays.len(), "view {v}, {level:?}: {ties} ties");
+            assert!(packed.iter().filter(|h| h.is_hit()).count() > rays.len() / 4, "view {v}: the view sees the room");
+        }
+    }
+}
+
+/// Packets of one origin whose rays aim at triangles' edges and corners, where the leaves'
+/// boxes have their faces, some from far away: every child box a ray enters must survive
+/// the packet's frustum test, so the packets find the hits of single rays.
+#[test]
+fn packets_of_one_origin_find_the_hits_at_box_faces() {
+    use isir::math::ray::RaySegment;
+    let mut mesh = isir::scenes::load_builtin_model("conference").unwrap().mesh;
+    mesh.build_accel(Accel::BvhSah);
+    let MeshAccel::Wide(w) = mesh.accel() else { panic!("the SAH BVH is the wide BVH") };
+    let b = mesh.aabb();
+    let mut rng = Sampler::from_seed(29);
+    let n = mesh.triangles.len();
+    let mut packets = Vec::new();
+    for p in 0..600 {
+        // Sixteen points on the edges of a run of triangles (near one another in the file),
+        // seen from inside the room, from its box's faces or from far away.
+        let first = (rng.next_f32() * n as f32) as usize % n;
+        let targets: Vec<Vec3> = (0..16)
+            .map(|k| {
+                let [a, c, d] = mesh.triangle_vertices(((first + k / 3) % n) as u32);
+                let s = if k % 4 == 0 { 0.0 } else { rng.next_f32() };
+                [a + (c - a) * s, c + (d - c) * s, d + (a - d) * s][k % 3]
+            })
+            .collect();
+        let centre = targets.iter().fold(Vec3::ZERO, |m, t| m + *t) / 16.0;
+        let dir = Vec3::new(rng.next_f32() - 0.5, rng.next_f32() - 0.5, rng.next_f32() - 0.5).normalize_or(Vec3::Y);
+        let origin = match p % 3 {
+            0 => b.min + b.diagonal() * Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()),
+            1 => centre + dir * (20.0 + 200.0 * rng.next_f32()),
+            _ => centre + dir * 2.0e4,
+        };
+        let rays: Vec<RaySegment> =
+            targets.iter().map(|t| RaySegment { origin, t_min: 0.0, direction: *t - origin, t_max: f32::INFINITY }).collect();
+        packets.push(rays);
+    }
+    let (mut hits, mut ties) = (0, 0);
+    for level in SimdLevel::available() {
+        let mut w = w.clone();
+        w.set_level(level);
+        for rays in &packets {
+            let mut out = [None; 16];
+            w.intersect_packet(rays, &mut out);
+            for (r, got) in rays.iter().zip(out) {
+                let want = w.intersect(&r.ray(), r.t_min, r.t_max);
+                hits += usize::from(want.is_some());
+                match (got, want) {
+                    (Some(g), Some(s)) if g.prim != s.prim && level == SimdLevel::Avx512 => {
+                        assert_eq!(g.t.to_bits(), s.t.to_bits(), "{level:?}: {r:?}");
+                        ties += 1;
+                    }
+                    (g, s) => assert_eq!(g, s, "{level:?}: {r:?}"),
+                }
+            }
+        }
+    }
+    let total = packets.len() * 16 * SimdLevel::available().len();
+    assert!(hits * 10 > total * 9, "{hits} of {total} rays hit: the rays reach their triangles");
+    assert!(ties * 100 < total, "{ties} ties");
+}
+
 /// Two triangles at exactly the same distance: a single ray reports the one it visits
 /// first, and packets and streams, which visit in another order, must report the same one.
 /// The plane z = 0 is tiled twice by right triangles with legs of 4 (the second tiling

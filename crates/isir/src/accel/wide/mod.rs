@@ -77,7 +77,7 @@ const _: () = assert!(std::mem::size_of::<Node8>() == 224);
 
 impl Node8 {
     /// No children: every lane's box inverted.
-    const EMPTY: Node8 = Node8 { lo: [[f32::INFINITY; 8]; 3], hi: [[f32::NEG_INFINITY; 8]; 3], child: [EMPTY; 8] };
+    pub(crate) const EMPTY: Node8 = Node8 { lo: [[f32::INFINITY; 8]; 3], hi: [[f32::NEG_INFINITY; 8]; 3], child: [EMPTY; 8] };
 
     fn set(&mut self, lane: usize, b: &crate::math::aabb::Aabb, code: u32) {
         for axis in 0..3 {
