@@ -55,6 +55,30 @@ fn the_documented_example_renders_as_written() {
     assert!(doc.contains("type = \"cook-torrance\", color = [1, 0.85, 0.57], roughness = 0.3, metalness = 1"));
 }
 
+/// The views of `tools/bench-views/` (other rays than the TP4 camera's for `isir bench`)
+/// are the conference room under its TP4 light, seen from elsewhere, and render.
+#[test]
+fn the_bench_views_are_the_conference_room_seen_from_elsewhere() {
+    let tp4 = scenes::builtin("tp4-conference").unwrap();
+    let mut views = 0;
+    for entry in std::fs::read_dir(repo().join("tools/bench-views")).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_none_or(|e| e != "toml") {
+            continue;
+        }
+        let file = scenes::load_scene_file(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let d = &file.description;
+        assert_eq!(d.objects, tp4.objects, "{}", path.display());
+        assert_eq!(d.lights, tp4.lights, "{}", path.display());
+        assert_ne!(d.camera.position, tp4.camera.position, "{}", path.display());
+        let pixels = render(d);
+        let lit = pixels.iter().filter(|c| c.max_element() > 0.0).count();
+        assert!(lit > pixels.len() / 4, "{}: {lit} of {} pixels lit", path.display(), pixels.len());
+        views += 1;
+    }
+    assert_eq!(views, 3);
+}
+
 #[test]
 fn a_missing_key_takes_the_course_default() {
     let f = parse_scene(Path::new("empty.toml"), "").unwrap();
