@@ -327,7 +327,8 @@ fn packets_of_one_origin_find_the_hits_at_box_faces() {
     let mut packets = Vec::new();
     for p in 0..600 {
         // Sixteen points on the edges of a run of triangles (near one another in the file),
-        // seen from inside the room, from its box's faces or from far away.
+        // seen from inside the room (often several octants: the AVX2 stream's case, also
+        // checked), from 20 to 220 units or from far away (one octant: the frustum's).
         let first = (rng.next_f32() * n as f32) as usize % n;
         let targets: Vec<Vec3> = (0..16)
             .map(|k| {
