@@ -240,29 +240,45 @@ fn packets_return_the_same_hits_as_single_rays() {
         r.direction.y = 0.0;
     }
     rays.truncate(rays.len() - 5);
-    let mut single = vec![HitRecord::MISS; rays.len()];
-    let mut packed = single.clone();
     if !SimdLevel::available().contains(&SimdLevel::Avx512) {
         eprintln!("note: no AVX-512 on this CPU: its packets are not tested here (the AVX2 streams and the scalar fallback are)");
     }
+    packets_on_every_level_as_single_rays(mesh, &rays, "", |packed: &[HitRecord]| {
+        assert!(!packed[5].is_hit() && !packed[21].is_hit());
+        assert!(packed.iter().filter(|h| h.is_hit()).count() > rays.len() / 2);
+    });
+}
+
+/// On every code path this CPU has, `rays` traced as packets (`trace_mesh_packets`) get
+/// the hits of single rays (`trace_mesh`), except that AVX-512 packets may report the
+/// other of two triangles at exactly one distance (rarely); `check` then looks at the
+/// packets' hits of each path.
+fn packets_on_every_level_as_single_rays(
+    mesh: &TriangleMesh,
+    rays: &[isir::rays::RayRecord],
+    label: &str,
+    check: impl Fn(&[isir::rays::HitRecord]),
+) {
+    use isir::rays::{trace_mesh, trace_mesh_packets, HitRecord};
+    let mut single = vec![HitRecord::MISS; rays.len()];
+    let mut packed = single.clone();
     for level in SimdLevel::available() {
         let mut m = mesh.clone();
         assert!(m.set_simd_level(level));
-        trace_mesh(&m, &rays, false, &mut single);
-        trace_mesh_packets(&m, &rays, &mut packed);
+        trace_mesh(&m, rays, false, &mut single);
+        trace_mesh_packets(&m, rays, &mut packed);
         let mut ties = 0;
         for (i, (s, p)) in single.iter().zip(&packed).enumerate() {
             if level == SimdLevel::Avx512 && s.prim != p.prim {
                 // AVX-512 packets report either of two triangles at exactly one distance.
-                assert_eq!(s.t.to_bits(), p.t.to_bits(), "{level:?} ray {i}: {s:?} vs {p:?}");
+                assert_eq!(s.t.to_bits(), p.t.to_bits(), "{label}{level:?} ray {i}: {s:?} vs {p:?}");
                 ties += 1;
                 continue;
             }
-            assert_eq!(s, p, "{level:?} ray {i}");
+            assert_eq!(s, p, "{label}{level:?} ray {i}");
         }
-        assert!(ties * 1000 < rays.len(), "{level:?}: {ties} ties");
-        assert!(!packed[5].is_hit() && !packed[21].is_hit());
-        assert!(packed.iter().filter(|h| h.is_hit()).count() > rays.len() / 2);
+        assert!(ties * 1000 < rays.len(), "{label}{level:?}: {ties} ties");
+        check(&packed);
     }
 }
 
@@ -289,26 +305,9 @@ fn camera_packets_from_every_view_return_the_single_rays_hits() {
         let fovy = if v == 3 { 8.0 } else { 60.0 };
         let camera = CameraDesc { fovy, ..CameraDesc::new(position, look_at) }.build(1.5);
         let rays = generate(&scene, &camera, 96, 64, RayKind::Primary, 1).unwrap();
-        let mut single = vec![HitRecord::MISS; rays.len()];
-        let mut packed = single.clone();
-        for level in SimdLevel::available() {
-            let mut m = mesh.clone();
-            assert!(m.set_simd_level(level));
-            trace_mesh(&m, &rays, false, &mut single);
-            trace_mesh_packets(&m, &rays, &mut packed);
-            let mut ties = 0;
-            for (i, (s, p)) in single.iter().zip(&packed).enumerate() {
-                if level == SimdLevel::Avx512 && s.prim != p.prim {
-                    // AVX-512 packets report either of two triangles at exactly one distance.
-                    assert_eq!(s.t.to_bits(), p.t.to_bits(), "view {v}, {level:?} ray {i}: {s:?} vs {p:?}");
-                    ties += 1;
-                    continue;
-                }
-                assert_eq!(s, p, "view {v}, {level:?} ray {i}");
-            }
-            assert!(ties * 1000 < rays.len(), "view {v}, {level:?}: {ties} ties");
+        packets_on_every_level_as_single_rays(mesh, &rays, &format!("view {v}, "), |packed| {
             assert!(packed.iter().filter(|h| h.is_hit()).count() > rays.len() / 4, "view {v}: the view sees the room");
-        }
+        });
     }
 }
 
