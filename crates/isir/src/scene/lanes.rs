@@ -221,11 +221,18 @@ impl Scene {
         // arithmetic (`ShapeLanes::hits`), tp4-bunny 0.986 of the CPU time (64 and 256
         // spp), tp4-sphere 0.989; computing the spheres' too, 1.02.
         let mut shape_lanes = 0u32;
+        let mut rows = rows;
         if self.only_mesh().is_none() {
             let mut shapes = ShapeLanes::EMPTY;
             let lanes = self.shape_lanes(hits, count, &mut shapes);
             if lanes.count_ones() >= SHAPE_LANES_FROM {
-                self.shape_hits_into(&shapes, lanes, rays, hits, &mut HitRows::default(), out);
+                // The caller's rows as scratch (rewritten from `out` below), else zeroed ones.
+                let mut own = None;
+                let scratch = match rows.as_deref_mut() {
+                    Some(rows) => rows,
+                    None => own.insert(HitRows::default()),
+                };
+                self.shape_hits_into(&shapes, lanes, rays, hits, scratch, out);
                 shape_lanes = lanes;
             }
         }
