@@ -208,11 +208,7 @@ impl Scene {
             let mut shapes = ShapeLanes::EMPTY;
             let lanes = self.shape_lanes(hits, count, &mut shapes);
             let mut own = None;
-            let rows = match rows {
-                Some(rows) => rows,
-                None => own.insert(HitRows::default()),
-            };
-            self.shape_hits_into(&shapes, lanes, rays, hits, rows, out);
+            self.shape_hits_into(&shapes, lanes, rays, hits, rows_or(rows, &mut own), out);
             return;
         }
         // A scene of meshes beside spheres and planes (TP4's rooms): the lanes that met a
@@ -228,11 +224,7 @@ impl Scene {
             if lanes.count_ones() >= SHAPE_LANES_FROM {
                 // The caller's rows as scratch (rewritten from `out` below), else zeroed ones.
                 let mut own = None;
-                let scratch = match rows.as_deref_mut() {
-                    Some(rows) => rows,
-                    None => own.insert(HitRows::default()),
-                };
-                self.shape_hits_into(&shapes, lanes, rays, hits, scratch, out);
+                self.shape_hits_into(&shapes, lanes, rays, hits, rows_or(rows.as_deref_mut(), &mut own), out);
                 shape_lanes = lanes;
             }
         }
@@ -314,6 +306,15 @@ impl Scene {
                 material: self.objects[i].materials[0],
             });
         }
+    }
+}
+
+/// The caller's rows, or else `own`'s, zeroed.
+#[inline(always)]
+fn rows_or<'a>(rows: Option<&'a mut HitRows>, own: &'a mut Option<HitRows>) -> &'a mut HitRows {
+    match rows {
+        Some(rows) => rows,
+        None => own.insert(HitRows::default()),
     }
 }
 
