@@ -5,15 +5,18 @@
 //! against its frustum (Reshetov et al.'s multi-level ray tracing culls the same way), so
 //! that a child no ray can enter costs one test for the packet instead of one per ray.
 //!
-//! Used for the closest hits of coherent rays given as a slice ([`WideBvh::intersect_packet`],
-//! the ray files' packets). Rays whose direction signs differ within the packet or a
-//! watertight BVH fall back to the AVX2 stream (`accel/wide/stream.rs`), as do all rays on
-//! a CPU with AVX2 but not AVX-512; without AVX2, one ray at a time. Möller–Trumbore is
-//! computed operation for operation as in [`crate::accel::triangle::moller_trumbore`], so
-//! packets return the same hits as single rays.
+//! Used for the closest hits of coherent rays: those given as a slice
+//! ([`WideBvh::intersect_packet`], the ray files' packets) and the renderer's lanes of at
+//! least [`PACKET_LANES_FROM`] rays ([`WideBvh::intersect_lanes`]: a pixel's camera samples).
+//! Rays whose direction signs differ within the packet or a watertight BVH fall back to
+//! the AVX2 stream (`accel/wide/stream.rs`), as do all rays on a CPU with AVX2 but not
+//! AVX-512; without AVX2, one ray at a time. Möller–Trumbore is computed operation for
+//! operation as in [`crate::accel::triangle::moller_trumbore`], and a ray that meets two
+//! triangles at exactly its closest distance is traced again alone, so packets return the
+//! hits of single rays, bit for bit.
 //!
-//! Every other group query (any-hit rays, and the renderer's lanes) takes the AVX2 stream
-//! on AVX-512 CPUs too. PERF, on the AVX-512 machine (Xeon, 2 cores), 16 spp: the
+//! Any-hit queries take the AVX2 stream on AVX-512 CPUs too. PERF, on the AVX-512 machine
+//! (Xeon, 2 cores), 16 spp: the
 //! conference room's shadow rays as 32-ray streams instead of sixteen-ray packets per
 //! octant, 2.11 -> 1.39 s; tp4-bunny 0.211 -> 0.191 s, the same images. Primary rays from
 //! a ray file stay packets there: 41 Mrays/s against the streams' 29.
@@ -31,33 +34,26 @@ pub const PACKET: usize = 16;
 /// An AVX-512 packet's leaf that at most this many of its rays reach is tested ray by ray.
 const LEAF_ALONE: u32 = 6;
 
+/// The renderer's lanes of closest-hit rays go as an AVX-512 packet from this many rays
+/// (fewer take the AVX2 stream).
+/// PERF: a pixel's sixteen camera samples as a packet instead of a stream, 2 cores: the
+/// conference room 0.977 of the CPU time at 16 spp, tp4-bunny 0.975 at 64 spp (9 paired
+/// runs each; the same images); the path tracer's bounces (mostly of several octants,
+/// which fall back to the stream) 1.000 and 1.002.
+pub const PACKET_LANES_FROM: u32 = 8;
+
 impl WideBvh {
     /// Closest hits of up to [`PACKET`] rays (`out[i]` for `rays[i]`): those of
-    /// [`WideBvh::intersect`], except that where two triangles meet a ray at exactly the
-    /// same distance an AVX-512 packet may report the other one (AVX2 streams and single
-    /// rays report the same one).
+    /// [`WideBvh::intersect`], bit for bit (where two triangles meet a ray at exactly the
+    /// same distance, the one the single ray reports).
     ///
     /// # Panics
     /// If `rays` holds more than [`PACKET`] rays or `out` is shorter than `rays`.
     pub fn intersect_packet(&self, rays: &[RaySegment], out: &mut [Option<MeshHit>]) {
         assert!(rays.len() <= PACKET && out.len() >= rays.len());
         #[cfg(target_arch = "x86_64")]
-        if self.level() == SimdLevel::Avx512 && !self.watertight && self.root != crate::accel::wide::EMPTY {
-            // PERF: the small stack where the tree fits it (nearly every tree): the full
-            // one's frame is probed page by page (a store per 4 KB) at every call, one call
-            // per packet: the conference room's primary packets 9% slower (23.5 -> 25.7
-            // Mrays/s, one thread), the dragon's 10%.
-            // SAFETY: the level is only ever Avx512 when the CPU reported AVX-512, and each
-            // stack holds the `7 · depth + 8` entries of this tree (`from_bvh` checked it
-            // against `STACK_SIZE`).
-            let done = if self.fits_small_stack() {
-                unsafe { self.packet_avx512::<SMALL_STACK>(rays, out) }
-            } else {
-                unsafe { self.packet_avx512::<{ crate::accel::wide::STACK_SIZE }>(rays, out) }
-            };
-            if done {
-                return;
-            }
+        if self.packet_closest(rays, out) {
+            return;
         }
         #[cfg(target_arch = "x86_64")]
         if self.level() >= SimdLevel::Avx2 && !self.watertight {
@@ -68,6 +64,28 @@ impl WideBvh {
         for (r, o) in rays.iter().zip(out.iter_mut()) {
             *o = self.intersect(&r.ray(), r.t_min, r.t_max);
         }
+    }
+
+    /// The closest hits of `rays` (at most [`PACKET`]) as an AVX-512 packet, where this
+    /// tree and CPU take one and the rays share an octant: false (nothing written)
+    /// otherwise.
+    #[cfg(target_arch = "x86_64")]
+    fn packet_closest(&self, rays: &[RaySegment], out: &mut [Option<MeshHit>]) -> bool {
+        if self.level() == SimdLevel::Avx512 && !self.watertight && self.root != crate::accel::wide::EMPTY {
+            // PERF: the small stack where the tree fits it (nearly every tree): the full
+            // one's frame is probed page by page (a store per 4 KB) at every call, one call
+            // per packet: the conference room's primary packets 9% slower (23.5 -> 25.7
+            // Mrays/s, one thread), the dragon's 10%.
+            // SAFETY: the level is only ever Avx512 when the CPU reported AVX-512, and each
+            // stack holds the `7 · depth + 8` entries of this tree (`from_bvh` checked it
+            // against `STACK_SIZE`).
+            return if self.fits_small_stack() {
+                unsafe { self.packet_avx512::<SMALL_STACK>(rays, out) }
+            } else {
+                unsafe { self.packet_avx512::<{ crate::accel::wide::STACK_SIZE }>(rays, out) }
+            };
+        }
+        false
     }
 
     /// Which of up to [`PACKET`] rays meet a triangle in their interval: bit `i` set when
@@ -94,9 +112,24 @@ impl WideBvh {
     /// [`WideBvh::intersect`] for the lanes `mask` of `rays`, each up to its own `t_max[k]`
     /// instead of the lanes' (the closest hit so far in a scene of several objects):
     /// `out[k]` for lane `k`, `None` outside `mask`. The same answers as one `intersect`
-    /// per lane; an AVX2 stream reads the rays from their lanes.
+    /// per lane: from [`PACKET_LANES_FROM`] lanes an AVX-512 packet where the CPU has it
+    /// and the rays share an octant, otherwise an AVX2 stream reading the rays from their
+    /// lanes.
     pub fn intersect_lanes(&self, rays: &RayLanes, t_max: &[f32; LANES], mask: u32, out: &mut [Option<MeshHit>; LANES]) {
+        const { assert!(LANES == PACKET) };
         let mask = mask & (u32::MAX >> (32 - LANES));
+        #[cfg(target_arch = "x86_64")]
+        if self.level() == SimdLevel::Avx512 && mask.count_ones() >= PACKET_LANES_FROM {
+            // The lanes outside `mask` as rays of zero direction: invalid, left out.
+            let segments: [RaySegment; LANES] = std::array::from_fn(|k| {
+                let (ray, t_max) =
+                    if mask & (1 << k) != 0 { (rays.ray(k), t_max[k]) } else { (crate::math::ray::Ray::new(Vec3::ZERO, Vec3::ZERO), 0.0) };
+                RaySegment { origin: ray.origin, t_min: rays.t_min[k], direction: ray.direction, t_max }
+            });
+            if self.packet_closest(&segments, out) {
+                return;
+            }
+        }
         #[cfg(target_arch = "x86_64")]
         if self.level() >= SimdLevel::Avx2 && !self.watertight && mask.count_ones() > 1 {
             out.fill(None);
@@ -174,6 +207,14 @@ impl WideBvh {
         let mut prim = _mm512_set1_epi32(-1);
         let mut hu = _mm512_setzero_ps();
         let mut hv = _mm512_setzero_ps();
+        // The rays with a hit so far, and those that met a second triangle at exactly
+        // their closest distance: traced again alone at the end, so that each reports the
+        // triangle its single ray visits first (the packet visits in another order). For
+        // that the triangle tests accept `t` up to and including the closest so far, and a
+        // popped node is kept while its entry is no farther than that (the box tests widen
+        // entries down, so one at exactly that distance is rare; kept all the same).
+        let mut has: u16 = 0;
+        let mut tied: u16 = 0;
         let nonneg_tmin = rays.iter().all(|r| r.t_min >= 0.0);
         // SAFETY: AVX-512 is enabled for this function.
         let frustum = unsafe { Frustum::of(&a, active) };
@@ -266,8 +307,14 @@ impl WideBvh {
                         let i = m.trailing_zeros() as usize;
                         m &= m - 1;
                         let r = rays.get_unchecked(i);
-                        if let Some(h) = self.leaf_closest_sse(cur, &r.ray(), r.t_min, ts[i]) {
+                        // Up to and including the closest so far: a tie is seen.
+                        if let Some(h) = self.leaf_closest_sse(cur, &r.ray(), r.t_min, ts[i].next_up()) {
                             let lane = 1u16 << i;
+                            if h.t >= ts[i] {
+                                tied |= lane & has;
+                                continue;
+                            }
+                            has |= lane;
                             t_best = _mm512_mask_mov_ps(t_best, lane, _mm512_set1_ps(h.t));
                             hu = _mm512_mask_mov_ps(hu, lane, _mm512_set1_ps(h.u));
                             hv = _mm512_mask_mov_ps(hv, lane, _mm512_set1_ps(h.v));
@@ -333,7 +380,10 @@ impl WideBvh {
                             m = _mm512_mask_cmp_ps_mask::<_CMP_GE_OQ>(m, v, zero);
                             m = _mm512_mask_cmp_ps_mask::<_CMP_LE_OQ>(m, add(u, v), one);
                             m = _mm512_mask_cmp_ps_mask::<_CMP_GE_OQ>(m, t, t_min);
-                            m = _mm512_mask_cmp_ps_mask::<_CMP_LT_OQ>(m, t, t_best);
+                            let within = _mm512_mask_cmp_ps_mask::<_CMP_LE_OQ>(m, t, t_best);
+                            m = _mm512_mask_cmp_ps_mask::<_CMP_LT_OQ>(within, t, t_best);
+                            tied |= within & !m & has;
+                            has |= m;
                             if m != 0 {
                                 t_best = _mm512_mask_mov_ps(t_best, m, t);
                                 hu = _mm512_mask_mov_ps(hu, m, u);
@@ -344,7 +394,7 @@ impl WideBvh {
                     }
                 }
             }
-            // ---- Pop a node some of whose rays still enter before their closest hit ----
+            // ---- Pop a node some of whose rays still enter by their closest hit ----
             loop {
                 if sp == 0 {
                     break 'walk;
@@ -352,7 +402,7 @@ impl WideBvh {
                 sp -= 1;
                 // SAFETY: every entry below the old `sp` was written by a push.
                 let near = nears.get_unchecked(sp).assume_init();
-                let m = _mm512_mask_cmp_ps_mask::<_CMP_LT_OQ>(*masks.get_unchecked(sp), near, t_best);
+                let m = _mm512_mask_cmp_ps_mask::<_CMP_LE_OQ>(*masks.get_unchecked(sp), near, t_best);
                 if m != 0 {
                     cur = *codes.get_unchecked(sp);
                     cur_mask = m;
@@ -370,7 +420,24 @@ impl WideBvh {
                 out[i] = Some(MeshHit { t: ts[i], prim: ps[i], u: us[i], v: vs[i] });
             }
         }
+        if tied != 0 {
+            self.retrace_packet(rays, tied, out);
+        }
         true
+    }
+}
+
+impl WideBvh {
+    /// The rays `tied` of a packet traced again alone (see [`WideBvh::intersect_packet`]).
+    /// Rare, so cold and out of line.
+    #[cfg(target_arch = "x86_64")]
+    #[cold]
+    #[inline(never)]
+    fn retrace_packet(&self, rays: &[RaySegment], tied: u16, out: &mut [Option<MeshHit>]) {
+        for i in lanes_of(u32::from(tied)) {
+            let r = &rays[i];
+            out[i] = self.intersect(&r.ray(), r.t_min, r.t_max);
+        }
     }
 }
 
