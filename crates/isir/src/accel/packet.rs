@@ -11,9 +11,10 @@
 //! Rays whose direction signs differ within the packet or a watertight BVH fall back to
 //! the AVX2 stream (`accel/wide/stream.rs`), as do all rays on a CPU with AVX2 but not
 //! AVX-512; without AVX2, one ray at a time. Möller–Trumbore is computed operation for
-//! operation as in [`crate::accel::triangle::moller_trumbore`], and a ray that meets two
-//! triangles at exactly its closest distance is traced again alone, so packets return the
-//! hits of single rays, bit for bit.
+//! operation as in [`crate::accel::triangle::moller_trumbore`], so packets return the
+//! hits of single rays, except where a ray meets two triangles at exactly its closest
+//! distance: the renderer's lanes then trace it again alone (the single ray's triangle,
+//! so the same images), a ray file's packets report either.
 //!
 //! Any-hit queries take the AVX2 stream on AVX-512 CPUs too. PERF, on the AVX-512 machine
 //! (Xeon, 2 cores), 16 spp: the
@@ -44,15 +45,18 @@ pub const PACKET_LANES_FROM: u32 = 8;
 
 impl WideBvh {
     /// Closest hits of up to [`PACKET`] rays (`out[i]` for `rays[i]`): those of
-    /// [`WideBvh::intersect`], bit for bit (where two triangles meet a ray at exactly the
-    /// same distance, the one the single ray reports).
+    /// [`WideBvh::intersect`], except that where two triangles meet a ray at exactly the
+    /// same distance an AVX-512 packet may report the other one (AVX2 streams, single rays
+    /// and [`WideBvh::intersect_lanes`] report the same one).
+    /// PERF: the renderer's exact ties (`EXACT`) here made these packets 3-4% slower
+    /// (`isir trace --packets`, the conference room's primary rays, one thread).
     ///
     /// # Panics
     /// If `rays` holds more than [`PACKET`] rays or `out` is shorter than `rays`.
     pub fn intersect_packet(&self, rays: &[RaySegment], out: &mut [Option<MeshHit>]) {
         assert!(rays.len() <= PACKET && out.len() >= rays.len());
         #[cfg(target_arch = "x86_64")]
-        if self.packet_closest(rays, out) {
+        if self.packet_closest::<false>(rays, out) {
             return;
         }
         #[cfg(target_arch = "x86_64")]
@@ -68,9 +72,10 @@ impl WideBvh {
 
     /// The closest hits of `rays` (at most [`PACKET`]) as an AVX-512 packet, where this
     /// tree and CPU take one and the rays share an octant: false (nothing written)
-    /// otherwise.
+    /// otherwise. With `EXACT`, a ray that meets two triangles at its closest distance
+    /// reports the single ray's.
     #[cfg(target_arch = "x86_64")]
-    fn packet_closest(&self, rays: &[RaySegment], out: &mut [Option<MeshHit>]) -> bool {
+    fn packet_closest<const EXACT: bool>(&self, rays: &[RaySegment], out: &mut [Option<MeshHit>]) -> bool {
         if self.level() == SimdLevel::Avx512 && !self.watertight && self.root != crate::accel::wide::EMPTY {
             // PERF: the small stack where the tree fits it (nearly every tree): the full
             // one's frame is probed page by page (a store per 4 KB) at every call, one call
@@ -80,9 +85,9 @@ impl WideBvh {
             // stack holds the `7 · depth + 8` entries of this tree (`from_bvh` checked it
             // against `STACK_SIZE`).
             return if self.fits_small_stack() {
-                unsafe { self.packet_avx512::<SMALL_STACK>(rays, out) }
+                unsafe { self.packet_avx512::<SMALL_STACK, EXACT>(rays, out) }
             } else {
-                unsafe { self.packet_avx512::<{ crate::accel::wide::STACK_SIZE }>(rays, out) }
+                unsafe { self.packet_avx512::<{ crate::accel::wide::STACK_SIZE }, EXACT>(rays, out) }
             };
         }
         false
@@ -126,7 +131,7 @@ impl WideBvh {
                     if mask & (1 << k) != 0 { (rays.ray(k), t_max[k]) } else { (crate::math::ray::Ray::new(Vec3::ZERO, Vec3::ZERO), 0.0) };
                 RaySegment { origin: ray.origin, t_min: rays.t_min[k], direction: ray.direction, t_max }
             });
-            if self.packet_closest(&segments, out) {
+            if self.packet_closest::<true>(&segments, out) {
                 return;
             }
         }
@@ -179,14 +184,15 @@ impl WideBvh {
     }
 
     /// The AVX-512 packet traversal of closest hits; false (nothing written) when the rays'
-    /// direction signs differ, which the octant-ordered box test cannot handle.
+    /// direction signs differ, which the octant-ordered box test cannot handle. With
+    /// `EXACT`, ties are seen and traced again alone (see below).
     ///
     /// # Safety
     /// The CPU must have AVX-512 (F, VL, DQ, BW), and `STACK` must be at least
     /// the tree's [`WideBvh::stack_entries`] (at most seven pushes per level).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
-    unsafe fn packet_avx512<const STACK: usize>(&self, rays: &[RaySegment], out: &mut [Option<MeshHit>]) -> bool {
+    unsafe fn packet_avx512<const STACK: usize, const EXACT: bool>(&self, rays: &[RaySegment], out: &mut [Option<MeshHit>]) -> bool {
         use crate::accel::wide::{leaf_blocks, EMPTY, LEAF};
         use std::arch::x86_64::*;
 
@@ -207,8 +213,8 @@ impl WideBvh {
         let mut prim = _mm512_set1_epi32(-1);
         let mut hu = _mm512_setzero_ps();
         let mut hv = _mm512_setzero_ps();
-        // The rays with a hit so far, and those that met a second triangle at exactly
-        // their closest distance: traced again alone at the end, so that each reports the
+        // With `EXACT`: the rays with a hit so far, and those that met a second triangle at
+        // exactly their closest distance: traced again alone at the end, so that each reports the
         // triangle its single ray visits first (the packet visits in another order). For
         // that the triangle tests accept `t` up to and including the closest so far, and a
         // popped node is kept while its entry is no farther than that (the box tests widen
@@ -307,14 +313,17 @@ impl WideBvh {
                         let i = m.trailing_zeros() as usize;
                         m &= m - 1;
                         let r = rays.get_unchecked(i);
-                        // Up to and including the closest so far: a tie is seen.
-                        if let Some(h) = self.leaf_closest_sse(cur, &r.ray(), r.t_min, ts[i].next_up()) {
+                        // With `EXACT`, up to and including the closest so far: a tie is seen.
+                        let limit = if EXACT { ts[i].next_up() } else { ts[i] };
+                        if let Some(h) = self.leaf_closest_sse(cur, &r.ray(), r.t_min, limit) {
                             let lane = 1u16 << i;
-                            if h.t >= ts[i] {
-                                tied |= lane & has;
-                                continue;
+                            if EXACT {
+                                if h.t >= ts[i] {
+                                    tied |= lane & has;
+                                    continue;
+                                }
+                                has |= lane;
                             }
-                            has |= lane;
                             t_best = _mm512_mask_mov_ps(t_best, lane, _mm512_set1_ps(h.t));
                             hu = _mm512_mask_mov_ps(hu, lane, _mm512_set1_ps(h.u));
                             hv = _mm512_mask_mov_ps(hv, lane, _mm512_set1_ps(h.v));
@@ -380,10 +389,14 @@ impl WideBvh {
                             m = _mm512_mask_cmp_ps_mask::<_CMP_GE_OQ>(m, v, zero);
                             m = _mm512_mask_cmp_ps_mask::<_CMP_LE_OQ>(m, add(u, v), one);
                             m = _mm512_mask_cmp_ps_mask::<_CMP_GE_OQ>(m, t, t_min);
-                            let within = _mm512_mask_cmp_ps_mask::<_CMP_LE_OQ>(m, t, t_best);
-                            m = _mm512_mask_cmp_ps_mask::<_CMP_LT_OQ>(within, t, t_best);
-                            tied |= within & !m & has;
-                            has |= m;
+                            if EXACT {
+                                let within = _mm512_mask_cmp_ps_mask::<_CMP_LE_OQ>(m, t, t_best);
+                                m = _mm512_mask_cmp_ps_mask::<_CMP_LT_OQ>(within, t, t_best);
+                                tied |= within & !m & has;
+                                has |= m;
+                            } else {
+                                m = _mm512_mask_cmp_ps_mask::<_CMP_LT_OQ>(m, t, t_best);
+                            }
                             if m != 0 {
                                 t_best = _mm512_mask_mov_ps(t_best, m, t);
                                 hu = _mm512_mask_mov_ps(hu, m, u);
@@ -402,7 +415,11 @@ impl WideBvh {
                 sp -= 1;
                 // SAFETY: every entry below the old `sp` was written by a push.
                 let near = nears.get_unchecked(sp).assume_init();
-                let m = _mm512_mask_cmp_ps_mask::<_CMP_LE_OQ>(*masks.get_unchecked(sp), near, t_best);
+                let m = if EXACT {
+                    _mm512_mask_cmp_ps_mask::<_CMP_LE_OQ>(*masks.get_unchecked(sp), near, t_best)
+                } else {
+                    _mm512_mask_cmp_ps_mask::<_CMP_LT_OQ>(*masks.get_unchecked(sp), near, t_best)
+                };
                 if m != 0 {
                     cur = *codes.get_unchecked(sp);
                     cur_mask = m;
@@ -420,7 +437,7 @@ impl WideBvh {
                 out[i] = Some(MeshHit { t: ts[i], prim: ps[i], u: us[i], v: vs[i] });
             }
         }
-        if tied != 0 {
+        if EXACT && tied != 0 {
             self.retrace_packet(rays, tied, out);
         }
         true
@@ -796,8 +813,9 @@ mod tests {
             let mut large = [None; PACKET];
             // SAFETY: the CPU has AVX-512 (checked above), and both stacks hold the tree's
             // `7 · depth + 8` entries (asserted above; `from_bvh` checks `STACK_SIZE`).
-            let (a, b) =
-                unsafe { (w.packet_avx512::<SMALL_STACK>(&segments, &mut small), w.packet_avx512::<STACK_SIZE>(&segments, &mut large)) };
+            let (a, b) = unsafe {
+                (w.packet_avx512::<SMALL_STACK, true>(&segments, &mut small), w.packet_avx512::<STACK_SIZE, true>(&segments, &mut large))
+            };
             assert_eq!(a, b, "both stacks take or leave the same packets");
             if !a {
                 // Rays of several octants (the middle of the image): the streams' case.
