@@ -711,3 +711,57 @@ fn packets_of_an_empty_mesh_or_of_invalid_rays_hit_nothing() {
     let MeshAccel::Wide(w) = bunny.accel() else { unreachable!() };
     assert_ne!(w.occluded_packet(&into_bunny), 0);
 }
+
+/// The renderer's lanes (`intersect_lanes`, an AVX-512 packet from eight lanes) with bad
+/// lanes among good ones: NaN or infinite origins and directions, zero directions, NaN,
+/// negative and empty intervals, lanes left out of the mask. Each lane answers as its
+/// single ray does, on every level, whether the good rays hit or miss.
+#[test]
+fn lanes_with_bad_rays_among_good_ones_answer_as_single_rays() {
+    use isir::math::ray::{RayLanes, RaySegment};
+    let mut bunny = bunny();
+    bunny.build_accel(Accel::BvhSah);
+    let MeshAccel::Wide(w) = bunny.accel() else { panic!("the SAH BVH is the wide BVH") };
+    let (centre, size) = (bunny.aabb().min + bunny.aabb().diagonal() * 0.5, bunny.aabb().diagonal().length());
+    let mut rng = Sampler::from_seed(43);
+    let (mut hits, mut checked) = (0, 0);
+    for round in 0..400 {
+        // Far enough to one side that the good rays share an octant (a packet's case).
+        let eye = centre + Vec3::new(size, 1.2 * size, 1.5 * size);
+        let rays: Vec<RaySegment> = (0..16)
+            .map(|k| {
+                let target = centre + (Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5) * size * 0.5;
+                let good = RaySegment { origin: eye, t_min: 0.0, direction: (target - eye).normalize(), t_max: f32::INFINITY };
+                // A few bad lanes per packet, of a kind that changes with the round.
+                if (k + round) % 5 != 0 {
+                    return good;
+                }
+                match (k + round / 5) % 8 {
+                    0 => RaySegment { origin: Vec3::NAN, ..good },
+                    1 => RaySegment { direction: Vec3::new(f32::NAN, 0.0, -1.0), ..good },
+                    2 => RaySegment { direction: Vec3::ZERO, ..good },
+                    3 => RaySegment { t_max: f32::NAN, ..good },
+                    4 => RaySegment { t_min: 5.0, t_max: 1.0, ..good },
+                    5 => RaySegment { t_min: -size, ..good },
+                    6 => RaySegment { origin: Vec3::splat(f32::INFINITY), ..good },
+                    _ => RaySegment { t_max: 1e-3, ..good },
+                }
+            })
+            .collect();
+        let lanes = RayLanes::new(&rays);
+        let mask = if round % 3 == 0 { u32::MAX } else { !(1u32 << (round % 16)) };
+        for level in SimdLevel::available() {
+            let mut w = w.clone();
+            w.set_level(level);
+            let mut out = [Some(isir::geometry::MeshHit { t: 1.0, prim: 0, u: 0.0, v: 0.0 }); 16];
+            w.intersect_lanes(&lanes, &lanes.t_max, mask, &mut out);
+            for (k, r) in rays.iter().enumerate() {
+                let want = if mask & (1 << k) != 0 { w.intersect(&r.ray(), r.t_min, r.t_max) } else { None };
+                assert_eq!(out[k], want, "round {round}, {level:?}, lane {k}: {r:?}");
+                hits += usize::from(want.is_some());
+                checked += 1;
+            }
+        }
+    }
+    assert!(hits > checked / 3 && hits < checked, "{hits} of {checked} lanes hit: both answers seen");
+}

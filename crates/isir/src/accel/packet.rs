@@ -445,8 +445,9 @@ impl WideBvh {
 }
 
 impl WideBvh {
-    /// The rays `tied` of a packet traced again alone (see [`WideBvh::intersect_packet`]).
-    /// Rare, so cold and out of line.
+    /// The rays `tied` of an `EXACT` packet (those that met two triangles at exactly
+    /// their closest distance) traced again alone, so that each gets the single ray's
+    /// triangle. Rare, so cold and out of line.
     #[cfg(target_arch = "x86_64")]
     #[cold]
     #[inline(never)]
