@@ -214,7 +214,7 @@ fn watertight_rays_through_vertices_and_edges_of_a_closed_mesh_all_hit() {
 
 #[test]
 fn packets_return_the_same_hits_as_single_rays() {
-    use isir::rays::{generate, trace_mesh, trace_mesh_packets, HitRecord, RayKind, RayRecord};
+    use isir::rays::{generate, HitRecord, RayKind, RayRecord};
     let desc = isir::scenes::builtin("tp4-conference").unwrap();
     let scene = desc.build(Accel::BvhSah).unwrap();
     let (_, mesh) = scene.meshes().next().unwrap();
@@ -289,7 +289,7 @@ fn packets_on_every_level_as_single_rays(
 /// hits of single rays. `tools/bench-views/` holds the same views as scene files.
 #[test]
 fn camera_packets_from_every_view_return_the_single_rays_hits() {
-    use isir::rays::{generate, trace_mesh, trace_mesh_packets, HitRecord, RayKind};
+    use isir::rays::{generate, RayKind};
     use isir::scenes::CameraDesc;
     let desc = isir::scenes::builtin("tp4-conference").unwrap();
     let scene = desc.build(Accel::BvhSah).unwrap();

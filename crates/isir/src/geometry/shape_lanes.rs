@@ -176,6 +176,7 @@ mod tests {
             let mut rays = RayLanes::EMPTY;
             let mut t = [0f32; LANES];
             let mut expected = Vec::new();
+            #[allow(clippy::needless_range_loop)] // one index into several arrays
             for k in 0..LANES {
                 let origin = Vec3::new(r(), r(), r()) * scale;
                 let direction = Vec3::new(r(), r(), r()).normalize_or(Vec3::X);
@@ -216,7 +217,7 @@ mod tests {
             assert_eq!(lane_mask(&shapes.sphere) & mask == 0, planes_only);
             let front_planes = if planes_only { shapes.hits_portable::<false>(&rays, &t, mask, &mut planes) } else { front_portable };
             if !planes_only {
-                planes = portable.clone();
+                planes = portable;
             }
             let at = |a: &[[f32; LANES]; 3], k: usize| Vec3::new(a[0][k], a[1][k], a[2][k]);
             for (k, (point, error, facing, front)) in expected.into_iter().enumerate() {

@@ -661,6 +661,7 @@ mod tests {
             assert!(bits(&portable) == bits(&batch), "{p} {ng} {normal}");
             // Equal as printed: NaNs (a sample on the hit point itself) equal, signed zeros not.
             let same = |a: &dyn std::fmt::Debug, b: &dyn std::fmt::Debug| assert_eq!(format!("{a:?}"), format!("{b:?}"));
+            #[allow(clippy::needless_range_loop)] // one index into several arrays
             for j in 0..BATCH {
                 same(
                     &(portable.sample(j), portable.shadow_ray(j), portable.live[j]),

@@ -338,6 +338,7 @@ mod tests {
             let mut r = || rng.next_f32() * 6.0 - 3.0;
             let mut rays = RayLanes::EMPTY;
             let mut t_max = [0f32; LANES];
+            #[allow(clippy::needless_range_loop)] // one index into several arrays
             for k in 0..LANES {
                 let case = (round as usize + k) % 11;
                 // Case 4: from above, down onto the quad's front.
@@ -356,6 +357,7 @@ mod tests {
             let mask = round.wrapping_mul(0x9e37_79b9) >> 16;
             let lanes = ls.intersect_lanes(&rays, &t_max, mask);
             let portable = ls.intersect_lanes_portable(&rays, &t_max, mask);
+            #[allow(clippy::needless_range_loop)] // one index into several arrays
             for k in 0..LANES {
                 let want = if mask & (1 << k) != 0 { light.intersect(&rays.ray(k), rays.t_min[k], t_max[k]) } else { None };
                 let bits = |h: Option<LightHit>| h.map(|h| (h.t.to_bits(), h.emitted.to_array().map(f32::to_bits), h.pdf.to_bits()));

@@ -699,7 +699,7 @@ mod tests {
             for round in 0..20_000 {
                 let mut r = |k: usize| {
                     let x = rng.next_f32() * 20.0 - 10.0;
-                    if (round + k) % 4 == 0 {
+                    if (round + k).is_multiple_of(4) {
                         special[(round / 4 + k) % special.len()]
                     } else {
                         x
@@ -765,6 +765,7 @@ mod tests {
             let mut r = || rng.next_f32() * 20.0 - 10.0;
             let (mut from, mut w) = (SurfaceLanes::default(), [[0f32; LANES]; 3]);
             let mut want = Vec::new();
+            #[allow(clippy::needless_range_loop)] // one index into several arrays
             for k in 0..LANES {
                 let p = if k % 5 == 0 { Vec3::ZERO } else { Vec3::new(r(), r(), r()) };
                 let err = if k % 5 == 0 { Vec3::ZERO } else { Vec3::new(r().abs(), r().abs(), r().abs()) * 1e-5 };

@@ -498,8 +498,8 @@ mod tests {
     /// the portable four chains, and the AVX-512 eight where the CPU has AVX-512 DQ and VL.
     #[test]
     fn the_generator_draws_rand_pcgs_numbers() {
-        let mut fills: Vec<(&str, fn(&mut Sampler, &mut [glam::Vec2]))> =
-            vec![("fill_2d", Sampler::fill_2d), ("portable", Sampler::fill_2d_portable)];
+        type Fill = fn(&mut Sampler, &mut [glam::Vec2]);
+        let mut fills: Vec<(&str, Fill)> = vec![("fill_2d", Sampler::fill_2d), ("portable", Sampler::fill_2d_portable)];
         #[cfg(target_arch = "x86_64")]
         if Sampler::has_avx512_fill() {
             // SAFETY: the CPU has AVX-512 DQ and VL, which is all `fill_2d_avx512` needs.

@@ -227,7 +227,7 @@ fn lane_sweep_finds_the_split_of_the_sequential_sweep() {
                     // Empty bins.
                     0 | 1 => EMPTY_BIN,
                     // The same box and count in many bins and axes: ties.
-                    2 | 3 if round % 2 == 0 => template,
+                    2 | 3 if round.is_multiple_of(2) => template,
                     // Huge boxes: areas overflow (round % 5 == 1), or an infinite extent
                     // against a flat one gives NaN (round % 5 == 2).
                     4 if round % 5 == 1 => Bin { lo: Vec3A::splat(-3e38), hi: Vec3A::splat(3e38), count: 2 },
