@@ -64,7 +64,9 @@ pub struct TraceArgs {
     pub watertight: bool,
     /// Trace consecutive rays in packets of 16 (for coherent rays such as primary rays;
     /// closest hits only): AVX-512 packets on the avx512 path, AVX2 streams on the avx2
-    /// one, one ray at a time on the scalar one.
+    /// one, one ray at a time on the scalar one. The hits are the single rays', except
+    /// that where a ray meets two triangles at exactly one distance an AVX-512 packet may
+    /// report the other one.
     #[arg(long)]
     pub packets: bool,
     /// When a thread traces 16 rays at a time, each next node prefetched while it steps
