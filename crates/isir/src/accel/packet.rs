@@ -56,7 +56,7 @@ impl WideBvh {
     pub fn intersect_packet(&self, rays: &[RaySegment], out: &mut [Option<MeshHit>]) {
         assert!(rays.len() <= PACKET && out.len() >= rays.len());
         #[cfg(target_arch = "x86_64")]
-        if self.packet_closest::<false>(rays, out) {
+        if self.packet_closest(rays, out) {
             return;
         }
         #[cfg(target_arch = "x86_64")]
@@ -72,10 +72,9 @@ impl WideBvh {
 
     /// The closest hits of `rays` (at most [`PACKET`]) as an AVX-512 packet, where this
     /// tree and CPU take one and the rays share an octant: false (nothing written)
-    /// otherwise. With `EXACT`, a ray that meets two triangles at its closest distance
-    /// reports the single ray's.
+    /// otherwise. Ties are not checked (see [`WideBvh::intersect_packet`]).
     #[cfg(target_arch = "x86_64")]
-    fn packet_closest<const EXACT: bool>(&self, rays: &[RaySegment], out: &mut [Option<MeshHit>]) -> bool {
+    fn packet_closest(&self, rays: &[RaySegment], out: &mut [Option<MeshHit>]) -> bool {
         if self.level() == SimdLevel::Avx512 && !self.watertight && self.root != crate::accel::wide::EMPTY {
             // PERF: the small stack where the tree fits it (nearly every tree): the full
             // one's frame is probed page by page (a store per 4 KB) at every call, one call
@@ -85,9 +84,9 @@ impl WideBvh {
             // stack holds the `7 · depth + 8` entries of this tree (`from_bvh` checked it
             // against `STACK_SIZE`).
             return if self.fits_small_stack() {
-                unsafe { self.packet_avx512::<SMALL_STACK, EXACT>(rays, out) }
+                unsafe { self.packet_avx512::<SMALL_STACK, false>(rays, out) }
             } else {
-                unsafe { self.packet_avx512::<{ crate::accel::wide::STACK_SIZE }, EXACT>(rays, out) }
+                unsafe { self.packet_avx512::<{ crate::accel::wide::STACK_SIZE }, false>(rays, out) }
             };
         }
         false
@@ -124,14 +123,20 @@ impl WideBvh {
         const { assert!(LANES == PACKET) };
         let mask = mask & (u32::MAX >> (32 - LANES));
         #[cfg(target_arch = "x86_64")]
-        if self.level() == SimdLevel::Avx512 && mask.count_ones() >= PACKET_LANES_FROM {
-            // The lanes outside `mask` as rays of zero direction: invalid, left out.
-            let segments: [RaySegment; LANES] = std::array::from_fn(|k| {
-                let (ray, t_max) =
-                    if mask & (1 << k) != 0 { (rays.ray(k), t_max[k]) } else { (crate::math::ray::Ray::new(Vec3::ZERO, Vec3::ZERO), 0.0) };
-                RaySegment { origin: ray.origin, t_min: rays.t_min[k], direction: ray.direction, t_max }
-            });
-            if self.packet_closest::<true>(&segments, out) {
+        if self.level() == SimdLevel::Avx512
+            && !self.watertight
+            && self.root != crate::accel::wide::EMPTY
+            && mask.count_ones() >= PACKET_LANES_FROM
+        {
+            // SAFETY: the level is only ever Avx512 when the CPU reported AVX-512, and each
+            // stack holds the `7 · depth + 8` entries of this tree (`from_bvh` checked it
+            // against `STACK_SIZE`).
+            let done = if self.fits_small_stack() {
+                unsafe { self.packet_lanes_avx512::<SMALL_STACK>(rays, t_max, mask, out) }
+            } else {
+                unsafe { self.packet_lanes_avx512::<{ crate::accel::wide::STACK_SIZE }>(rays, t_max, mask, out) }
+            };
+            if done {
                 return;
             }
         }
@@ -193,21 +198,66 @@ impl WideBvh {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
     unsafe fn packet_avx512<const STACK: usize, const EXACT: bool>(&self, rays: &[RaySegment], out: &mut [Option<MeshHit>]) -> bool {
-        use crate::accel::wide::{leaf_blocks, EMPTY, LEAF};
-        use std::arch::x86_64::*;
-
         // ---- Load the packet as structure of arrays ----
         let mut a = [[0f32; PACKET]; 11];
         let Some((active, neg)) = packet_rows(rays, &mut a) else { return false };
         out[..rays.len()].fill(None);
-        let Some(neg) = neg else { return true };
+        if let Some(neg) = neg {
+            // SAFETY: the caller's guarantees.
+            unsafe { self.packet_rows_avx512::<STACK, EXACT>(&a, active, neg, out) };
+        }
+        true
+    }
+
+    /// [`WideBvh::packet_avx512`] of the lanes `mask` of `rays`, each up to its own
+    /// `t_max[k]`, with `EXACT` ties (the renderer's lanes): their rows made from the lanes
+    /// directly. False (nothing written) when their octants differ.
+    ///
+    /// # Safety
+    /// As for [`WideBvh::packet_avx512`].
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
+    unsafe fn packet_lanes_avx512<const STACK: usize>(
+        &self,
+        rays: &RayLanes,
+        t_max: &[f32; LANES],
+        mask: u32,
+        out: &mut [Option<MeshHit>; LANES],
+    ) -> bool {
+        let mut a = [[0f32; PACKET]; 11];
+        let Some((active, neg)) = lane_rows(rays, t_max, mask, &mut a) else { return false };
+        out.fill(None);
+        if let Some(neg) = neg {
+            // SAFETY: the caller's guarantees.
+            unsafe { self.packet_rows_avx512::<STACK, true>(&a, active, neg, out) };
+        }
+        true
+    }
+
+    /// The packet traversal of the rays `active` of rows `a` (see [`packet_rows`]), all of
+    /// the octant `neg`: each active ray's closest hit written to `out[i]` (which the caller
+    /// cleared).
+    ///
+    /// # Safety
+    /// As for [`WideBvh::packet_avx512`]; `out` holds a slot for every active ray.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx2,fma")]
+    unsafe fn packet_rows_avx512<const STACK: usize, const EXACT: bool>(
+        &self,
+        a: &Rows,
+        active: u16,
+        neg: [bool; 3],
+        out: &mut [Option<MeshHit>],
+    ) {
+        use crate::accel::wide::{leaf_blocks, EMPTY, LEAF};
+        use std::arch::x86_64::*;
         // SAFETY: AVX-512 is enabled for this function (the caller checked the CPU) and the
         // unaligned loads read arrays of exactly 16 floats.
         let ld = |x: &[f32; PACKET]| _mm512_loadu_ps(x.as_ptr());
         let (ox, oy, oz) = (ld(&a[0]), ld(&a[1]), ld(&a[2]));
         let (dx, dy, dz) = (ld(&a[3]), ld(&a[4]), ld(&a[5]));
         // SAFETY: AVX-512 is enabled for this function.
-        let slabs = unsafe { Slabs::of(&a) };
+        let slabs = unsafe { Slabs::of(a) };
         let t_min = ld(&a[9]);
         let mut t_best = ld(&a[10]);
         let mut prim = _mm512_set1_epi32(-1);
@@ -221,9 +271,9 @@ impl WideBvh {
         // entries down, so one at exactly that distance is rare; kept all the same).
         let mut has: u16 = 0;
         let mut tied: u16 = 0;
-        let nonneg_tmin = rays.iter().all(|r| r.t_min >= 0.0);
+        let nonneg_tmin = _mm512_mask_cmp_ps_mask::<_CMP_LT_OQ>(active, t_min, _mm512_setzero_ps()) == 0;
         // SAFETY: AVX-512 is enabled for this function.
-        let frustum = unsafe { Frustum::of(&a, active) };
+        let frustum = unsafe { Frustum::of(a, active) };
 
         // The stack keeps, per entry, the node, the rays that entered its box and their
         // entry distances, to cull rays whose closest hit has moved in front since.
@@ -312,7 +362,7 @@ impl WideBvh {
                     while m != 0 {
                         let i = m.trailing_zeros() as usize;
                         m &= m - 1;
-                        let r = rays.get_unchecked(i);
+                        let r = row_segment(a, i);
                         // With `EXACT`, up to and including the closest so far: a tie is seen.
                         let limit = if EXACT { ts[i].next_up() } else { ts[i] };
                         if let Some(h) = self.leaf_closest_sse(cur, &r.ray(), r.t_min, limit) {
@@ -432,15 +482,14 @@ impl WideBvh {
         _mm512_storeu_ps(us.as_mut_ptr(), hu);
         _mm512_storeu_ps(vs.as_mut_ptr(), hv);
         _mm512_storeu_si512(ps.as_mut_ptr().cast(), prim);
-        for i in 0..rays.len() {
-            if ps[i] != EMPTY && active & (1 << i) != 0 {
+        for i in lanes_of(u32::from(active)) {
+            if ps[i] != EMPTY {
                 out[i] = Some(MeshHit { t: ts[i], prim: ps[i], u: us[i], v: vs[i] });
             }
         }
         if EXACT && tied != 0 {
-            self.retrace_packet(rays, tied, out);
+            self.retrace_packet(a, tied, out);
         }
-        true
     }
 }
 
@@ -451,12 +500,32 @@ impl WideBvh {
     #[cfg(target_arch = "x86_64")]
     #[cold]
     #[inline(never)]
-    fn retrace_packet(&self, rays: &[RaySegment], tied: u16, out: &mut [Option<MeshHit>]) {
+    fn retrace_packet(&self, a: &Rows, tied: u16, out: &mut [Option<MeshHit>]) {
         for i in lanes_of(u32::from(tied)) {
-            let r = &rays[i];
+            let r = row_segment(a, i);
             out[i] = self.intersect(&r.ray(), r.t_min, r.t_max);
         }
     }
+}
+
+/// Ray `i` of a packet's rows, as it was given.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn row_segment(a: &Rows, i: usize) -> RaySegment {
+    RaySegment {
+        origin: Vec3::new(a[0][i], a[1][i], a[2][i]),
+        t_min: a[9][i],
+        direction: Vec3::new(a[3][i], a[4][i], a[5][i]),
+        t_max: a[10][i],
+    }
+}
+
+/// [`packet_rows`] of the lanes `mask` of `rays`, lane `k` up to `t_max[k]`.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn lane_rows(rays: &RayLanes, t_max: &[f32; LANES], mask: u32, a: &mut Rows) -> Option<(u16, Option<[bool; 3]>)> {
+    let lanes = lanes_of(mask & (u32::MAX >> (32 - LANES)));
+    rows_of(lanes.map(|k| (k, RaySegment { t_max: t_max[k], ..rays.segment(k) })), a)
 }
 
 /// A packet's rays as rows of sixteen floats: `ox oy oz dx dy dz ix iy iz tmin tmax`.
@@ -471,9 +540,16 @@ type Rows = [[f32; PACKET]; 11];
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
 fn packet_rows(rays: &[RaySegment], a: &mut Rows) -> Option<(u16, Option<[bool; 3]>)> {
+    rows_of(rays.iter().enumerate().map(|(i, r)| (i, *r)), a)
+}
+
+/// [`packet_rows`] of the rays `(i, ray i)` (each `i` below [`PACKET`]).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn rows_of(rays: impl Iterator<Item = (usize, RaySegment)>, a: &mut Rows) -> Option<(u16, Option<[bool; 3]>)> {
     let mut active: u16 = 0;
     let mut neg: Option<[bool; 3]> = None;
-    for (i, r) in rays.iter().enumerate() {
+    for (i, r) in rays {
         if !r.ray().is_valid() {
             continue;
         }
