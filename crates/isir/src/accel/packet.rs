@@ -75,7 +75,7 @@ impl WideBvh {
     /// otherwise. Ties are not checked (see [`WideBvh::intersect_packet`]).
     #[cfg(target_arch = "x86_64")]
     fn packet_closest(&self, rays: &[RaySegment], out: &mut [Option<MeshHit>]) -> bool {
-        if self.level() == SimdLevel::Avx512 && !self.watertight && self.root != crate::accel::wide::EMPTY {
+        if self.takes_packets() {
             // PERF: the small stack where the tree fits it (nearly every tree): the full
             // one's frame is probed page by page (a store per 4 KB) at every call, one call
             // per packet: the conference room's primary packets 9% slower (23.5 -> 25.7
@@ -90,6 +90,14 @@ impl WideBvh {
             };
         }
         false
+    }
+
+    /// Whether this tree takes AVX-512 packets: the CPU has AVX-512 (the tree's level), and
+    /// the tree is neither watertight (the packets have only Möller–Trumbore) nor empty.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn takes_packets(&self) -> bool {
+        self.level() == SimdLevel::Avx512 && !self.watertight && self.root != crate::accel::wide::EMPTY
     }
 
     /// Which of up to [`PACKET`] rays meet a triangle in their interval: bit `i` set when
@@ -123,11 +131,7 @@ impl WideBvh {
         const { assert!(LANES == PACKET) };
         let mask = mask & (u32::MAX >> (32 - LANES));
         #[cfg(target_arch = "x86_64")]
-        if self.level() == SimdLevel::Avx512
-            && !self.watertight
-            && self.root != crate::accel::wide::EMPTY
-            && mask.count_ones() >= PACKET_LANES_FROM
-        {
+        if self.takes_packets() && mask.count_ones() >= PACKET_LANES_FROM {
             // SAFETY: the level is only ever Avx512 when the CPU reported AVX-512, and each
             // stack holds the `7 · depth + 8` entries of this tree (`from_bvh` checked it
             // against `STACK_SIZE`).
