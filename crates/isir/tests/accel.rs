@@ -314,7 +314,8 @@ fn camera_packets_from_every_view_return_the_single_rays_hits() {
 
 /// Packets of one origin whose rays aim at triangles' edges and corners, where the leaves'
 /// boxes have their faces, some from far away: every child box a ray enters must survive
-/// the packet's frustum test, so the packets find the hits of single rays.
+/// the packet's frustum test, so the packets find the hits of single rays (the renderer's
+/// lanes, ties included; a ray file's packets may report the other triangle of a tie).
 #[test]
 fn packets_of_one_origin_find_the_hits_at_box_faces() {
     use isir::math::ray::RaySegment;
