@@ -381,7 +381,7 @@ unsafe fn push_children<const SIMD: bool, const ANY: bool>(
 /// Asks for the node or the leaf's first two blocks that `code` names to be brought into
 /// the cache (a hint: no effect on what any load returns).
 #[inline(always)]
-fn prefetch(bvh: &WideBvh, code: u32) {
+pub(crate) fn prefetch(bvh: &WideBvh, code: u32) {
     #[cfg(target_arch = "x86_64")]
     {
         use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};

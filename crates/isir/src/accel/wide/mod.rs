@@ -32,6 +32,7 @@ mod tests;
 mod traverse;
 pub use interleave::Interleave;
 pub use interleave::IN_FLIGHT;
+pub(crate) use interleave::prefetch;
 
 use crate::accel::bvh::Bvh;
 use crate::accel::triangle::TriangleTest;
