@@ -30,9 +30,9 @@ pub(crate) mod stream;
 #[cfg(test)]
 mod tests;
 mod traverse;
+pub(crate) use interleave::prefetch;
 pub use interleave::Interleave;
 pub use interleave::IN_FLIGHT;
-pub(crate) use interleave::prefetch;
 
 use crate::accel::bvh::Bvh;
 use crate::accel::triangle::TriangleTest;
