@@ -357,6 +357,7 @@ pub fn fan_occluded(list: &[Tri4], origin: Vec3, rays: &RayLanes, mask: u32) -> 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 unsafe fn fan_occluded_avx2(list: &[Tri4], o: Vec3, rays: &RayLanes, mask: u32) -> u32 {
+    use super::wide::origin_part_avx2;
     use std::arch::x86_64::*;
     let mut blocked = 0u32;
     for half in 0..LANES / 8 {
@@ -371,32 +372,17 @@ unsafe fn fan_occluded_avx2(list: &[Tri4], o: Vec3, rays: &RayLanes, mask: u32) 
         let (zero, one) = (_mm256_setzero_ps(), _mm256_set1_ps(1.0));
         let mut hit = 0u32;
         let (mul, sub, add) = (|a, b| _mm256_mul_ps(a, b), |a, b| _mm256_sub_ps(a, b), |a, b| _mm256_add_ps(a, b));
+        let origin = [_mm256_set1_ps(o.x), _mm256_set1_ps(o.y), _mm256_set1_ps(o.z)];
         'tris: for tri in list {
-            // The origin's part of the block's four triangles at once, in SSE: the
-            // operations the kernels compute lane by lane, so the same floats. PERF: with
-            // the triangles' values broadcast from memory (one load each) instead of a
-            // lane's vectors gathered by shuffles, the fans' share of the conference room
-            // fell from 7% to 5.6%: 0.955 and 0.988 of the CPU time (32 and 64 spp, 9 and 7
-            // pairs). Skipping the division when no lane can pass (the packets' filter)
-            // gained nothing more (1.011).
-            // SAFETY: AVX2 (and so SSE) is enabled here; each load reads one `[f32; 4]`.
-            let (s, q, t_num) = unsafe {
-                let ld = |a: &[f32; 4]| _mm_loadu_ps(a.as_ptr());
-                let (m4, s4, a4) = (|a, b| _mm_mul_ps(a, b), |a, b| _mm_sub_ps(a, b), |a, b| _mm_add_ps(a, b));
-                let sx = s4(_mm_set1_ps(o.x), ld(&tri.v0[0]));
-                let sy = s4(_mm_set1_ps(o.y), ld(&tri.v0[1]));
-                let sz = s4(_mm_set1_ps(o.z), ld(&tri.v0[2]));
-                let (e1x, e1y, e1z) = (ld(&tri.e1[0]), ld(&tri.e1[1]), ld(&tri.e1[2]));
-                let qx = s4(m4(sy, e1z), m4(sz, e1y));
-                let qy = s4(m4(sz, e1x), m4(sx, e1z));
-                let qz = s4(m4(sx, e1y), m4(sy, e1x));
-                let t_num = a4(a4(m4(ld(&tri.e2[0]), qx), m4(ld(&tri.e2[1]), qy)), m4(ld(&tri.e2[2]), qz));
-                let mut out = [[0f32; 4]; 7];
-                for (o, x) in out.iter_mut().zip([sx, sy, sz, qx, qy, qz, t_num]) {
-                    _mm_storeu_ps(o.as_mut_ptr(), x);
-                }
-                ([out[0], out[1], out[2]], [out[3], out[4], out[5]], out[6])
-            };
+            // The origin's part of the block's four triangles at once, as the streams
+            // compute it for rays of one origin: the same operations, so the same floats.
+            // PERF: with the triangles' values broadcast from memory (one load each) instead
+            // of a lane's vectors gathered by shuffles, the fans' share of the conference
+            // room fell from 7% to 5.6%: 0.955 and 0.988 of the CPU time (32 and 64 spp, 9
+            // and 7 pairs). Skipping the division when no lane can pass (the packets'
+            // filter) gained nothing more (1.011).
+            // SAFETY: AVX2 (and so AVX) is enabled here.
+            let (s, q, t_num) = unsafe { origin_part_avx2(tri, origin).low_rows() };
             for l in (0..4).filter(|&l| tri.prim[l] != EMPTY) {
                 // Broadcasts straight from memory: one load each, no shuffles.
                 let b = |x: &f32| _mm256_broadcast_ss(x);

@@ -530,10 +530,29 @@ pub(super) unsafe fn tri4x2_avx2(
 /// directions: `s = o - v0`, `q = s × e1` and `e2 · q`, the numerator of `t`. Rays of one
 /// origin (a camera's, one hit's shadow rays) share them: computed once per block.
 #[cfg(target_arch = "x86_64")]
-pub(super) struct OriginPart {
+pub(crate) struct OriginPart {
     s: [std::arch::x86_64::__m256; 3],
     q: [std::arch::x86_64::__m256; 3],
     t_num: std::arch::x86_64::__m256,
+}
+
+#[cfg(target_arch = "x86_64")]
+impl OriginPart {
+    /// The part of the origin in the low half (all of it for one origin broadcast to both
+    /// halves) as rows of the block's four triangles: `s`, `q` and `e2 · q`.
+    ///
+    /// # Safety
+    /// The CPU must have AVX.
+    #[inline(always)]
+    pub(crate) unsafe fn low_rows(&self) -> ([[f32; 4]; 3], [[f32; 4]; 3], [f32; 4]) {
+        use std::arch::x86_64::*;
+        let mut out = [[0f32; 4]; 7];
+        for (o, x) in out.iter_mut().zip(self.s.iter().chain(&self.q).chain([&self.t_num])) {
+            // SAFETY: the caller guarantees AVX; each store writes one `[f32; 4]`.
+            unsafe { _mm_storeu_ps(o.as_mut_ptr(), _mm256_castps256_ps128(*x)) };
+        }
+        ([out[0], out[1], out[2]], [out[3], out[4], out[5]], out[6])
+    }
 }
 
 /// Two floats as the halves of an AVX register (`x` low, `y` high), each broadcast.
@@ -566,7 +585,7 @@ unsafe fn row(r: &[f32; 4]) -> std::arch::x86_64::__m256 {
 /// The CPU must have AVX.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-pub(super) unsafe fn origin_part_avx2(tri: &Tri4, o: [std::arch::x86_64::__m256; 3]) -> OriginPart {
+pub(crate) unsafe fn origin_part_avx2(tri: &Tri4, o: [std::arch::x86_64::__m256; 3]) -> OriginPart {
     use std::arch::x86_64::*;
     // SAFETY: the caller guarantees AVX.
     unsafe {

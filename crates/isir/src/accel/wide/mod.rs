@@ -40,6 +40,8 @@ use crate::accel::{MeshHit, Triangles};
 use crate::math::ray::Ray;
 use collapse::{Collapse, Plan};
 use glam::Vec3;
+#[cfg(target_arch = "x86_64")]
+pub(crate) use kernels::origin_part_avx2;
 pub(crate) use kernels::{slab_inverse, FMA_SLACK};
 
 /// No child in this lane.
