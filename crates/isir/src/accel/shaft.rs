@@ -534,60 +534,57 @@ mod tests {
     /// A fan's rays each aimed at a triangle of the list and ending exactly where the
     /// single ray's first hit stops counting (its `t` and the float just past it): the
     /// fan's `t` must be the single ray's to the last bit, or one of the two answers
-    /// differs. (Fails with `e2·q` summed in another order.)
+    /// differs. (Fails with `e2·q` summed in another order.) Through [`fan_occluded`]: the
+    /// AVX2 kernel where the CPU has it.
     #[test]
     fn fans_end_exactly_where_single_rays_do() {
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
-            let (mesh, _, _, _) = room(5);
-            let bvh = wide(&mesh);
-            let mut rng = Sampler::from_seed(6);
-            let (mut at, mut past) = (0, 0);
-            for round in 0..400 {
-                let first = (rng.next_f32() * (bvh.tris.len() - 4) as f32) as usize;
-                let list = &bvh.tris[first..first + 1 + round % 4];
-                let origin = Vec3::new(20.0 * rng.next_f32() - 10.0, 6.0 * rng.next_f32(), 20.0 * rng.next_f32() - 10.0);
-                let mut rays = Vec::new();
-                for k in 0..LANES {
-                    let tri = &list[k % list.len()];
-                    let l = (k / list.len()) % 4;
-                    if tri.prim[l] == EMPTY {
-                        continue;
-                    }
-                    let [v0, e1, e2] = tri.lane(l);
-                    let (a, b) = (0.1 + 0.4 * rng.next_f32(), 0.1 + 0.4 * rng.next_f32());
-                    let ray = RaySegment { origin, t_min: 0.0, direction: v0 + e1 * a + e2 * b - origin, t_max: f32::INFINITY };
-                    if !occluded_by(list, &ray.ray(), 0.0, f32::INFINITY) {
-                        continue;
-                    }
-                    // The least `t_max` for which the single ray is blocked (it needs `t < t_max`).
-                    let (mut lo, mut hi) = (0u32, f32::INFINITY.to_bits());
-                    while hi - lo > 1 {
-                        let mid = lo + (hi - lo) / 2;
-                        if occluded_by(list, &ray.ray(), 0.0, f32::from_bits(mid)) {
-                            hi = mid;
-                        } else {
-                            lo = mid;
-                        }
-                    }
-                    let end = if k % 2 == 0 { hi } else { lo };
-                    rays.push(RaySegment { t_max: f32::from_bits(end), ..ray });
-                }
-                if rays.len() < 2 {
+        let (mesh, _, _, _) = room(5);
+        let bvh = wide(&mesh);
+        let mut rng = Sampler::from_seed(6);
+        let (mut at, mut past) = (0, 0);
+        for round in 0..400 {
+            let first = (rng.next_f32() * (bvh.tris.len() - 4) as f32) as usize;
+            let list = &bvh.tris[first..first + 1 + round % 4];
+            let origin = Vec3::new(20.0 * rng.next_f32() - 10.0, 6.0 * rng.next_f32(), 20.0 * rng.next_f32() - 10.0);
+            let mut rays = Vec::new();
+            for k in 0..LANES {
+                let tri = &list[k % list.len()];
+                let l = (k / list.len()) % 4;
+                if tri.prim[l] == EMPTY {
                     continue;
                 }
-                let lanes = RayLanes::new(&rays);
-                let mask = u32::MAX >> (32 - rays.len());
-                // SAFETY: the CPU has AVX2 (checked above).
-                let got = unsafe { fan_occluded_avx2(list, origin, &lanes, mask) };
-                for (k, r) in rays.iter().enumerate() {
-                    let one = occluded_by(list, &r.ray(), r.t_min, r.t_max);
-                    assert_eq!(got & (1 << k) != 0, one, "round {round}, ray {k}: {r:?}");
-                    *(if one { &mut past } else { &mut at }) += 1;
+                let [v0, e1, e2] = tri.lane(l);
+                let (a, b) = (0.1 + 0.4 * rng.next_f32(), 0.1 + 0.4 * rng.next_f32());
+                let ray = RaySegment { origin, t_min: 0.0, direction: v0 + e1 * a + e2 * b - origin, t_max: f32::INFINITY };
+                if !occluded_by(list, &ray.ray(), 0.0, f32::INFINITY) {
+                    continue;
                 }
+                // The least `t_max` for which the single ray is blocked (it needs `t < t_max`).
+                let (mut lo, mut hi) = (0u32, f32::INFINITY.to_bits());
+                while hi - lo > 1 {
+                    let mid = lo + (hi - lo) / 2;
+                    if occluded_by(list, &ray.ray(), 0.0, f32::from_bits(mid)) {
+                        hi = mid;
+                    } else {
+                        lo = mid;
+                    }
+                }
+                let end = if k % 2 == 0 { hi } else { lo };
+                rays.push(RaySegment { t_max: f32::from_bits(end), ..ray });
             }
-            assert!(at > 1000 && past > 1000, "{at} rays ending at their hit, {past} just past it");
+            if rays.len() < 2 {
+                continue;
+            }
+            let lanes = RayLanes::new(&rays);
+            let mask = u32::MAX >> (32 - rays.len());
+            let got = fan_occluded(list, origin, &lanes, mask);
+            for (k, r) in rays.iter().enumerate() {
+                let one = occluded_by(list, &r.ray(), r.t_min, r.t_max);
+                assert_eq!(got & (1 << k) != 0, one, "round {round}, ray {k}: {r:?}");
+                *(if one { &mut past } else { &mut at }) += 1;
+            }
         }
+        assert!(at > 1000 && past > 1000, "{at} rays ending at their hit, {past} just past it");
     }
 
     #[test]
