@@ -24,7 +24,7 @@
 
 #[cfg(target_arch = "x86_64")]
 use crate::accel::wide::stream::{LanePair, LanesUpTo, MaskedLanes};
-use crate::accel::wide::{SimdLevel, WideBvh, SMALL_STACK};
+use crate::accel::wide::{Cut, SimdLevel, WideBvh, SMALL_STACK};
 use crate::accel::MeshHit;
 use crate::math::ray::{lanes_of, RayLanes, RaySegment, LANES};
 use glam::Vec3;
@@ -62,7 +62,7 @@ impl WideBvh {
         #[cfg(target_arch = "x86_64")]
         if self.level() >= SimdLevel::Avx2 && !self.watertight {
             // SAFETY: the level is only ever Avx2 or Avx512 when the CPU reported AVX2; not watertight.
-            unsafe { self.stream_avx2::<false, _>(rays, out) };
+            unsafe { self.stream_avx2::<false, _>(rays, out, None) };
             return;
         }
         for (r, o) in rays.iter().zip(out.iter_mut()) {
@@ -116,7 +116,7 @@ impl WideBvh {
             // PERF: a stream of eight shadow rays of one point (conference room, 8 light
             // samples): 0.77x the render time of single rays.
             // SAFETY: the level is only ever Avx2 or Avx512 when the CPU reported AVX2; not watertight.
-            return unsafe { self.stream_avx2::<true, _>(rays, &mut []) };
+            return unsafe { self.stream_avx2::<true, _>(rays, &mut [], None) };
         }
         rays.iter().enumerate().fold(0, |m, (i, r)| m | u32::from(single(r)) << i)
     }
@@ -148,7 +148,7 @@ impl WideBvh {
         if self.level() >= SimdLevel::Avx2 && !self.watertight && mask.count_ones() > 1 {
             out.fill(None);
             // SAFETY: the level is only ever Avx2 or Avx512 when the CPU reported AVX2; not watertight.
-            unsafe { self.stream_avx2::<false, _>(&LanesUpTo(rays, t_max, mask), out) };
+            unsafe { self.stream_avx2::<false, _>(&LanesUpTo(rays, t_max, mask), out, None) };
             return;
         }
         for (k, o) in out.iter_mut().enumerate() {
@@ -165,7 +165,7 @@ impl WideBvh {
         #[cfg(target_arch = "x86_64")]
         if self.level() >= SimdLevel::Avx2 && !self.watertight && mask.count_ones() > 1 {
             // SAFETY: the level is only ever Avx2 or Avx512 when the CPU reported AVX2; not watertight.
-            return unsafe { self.stream_avx2::<true, _>(&MaskedLanes(rays, mask), &mut []) };
+            return unsafe { self.stream_avx2::<true, _>(&MaskedLanes(rays, mask), &mut [], None) };
         }
         let mut group = [RaySegment { origin: Vec3::ZERO, t_min: 0.0, direction: Vec3::ZERO, t_max: 0.0 }; PACKET];
         let mut index = [0usize; PACKET];
@@ -182,11 +182,22 @@ impl WideBvh {
     /// all of them); otherwise batch by batch.
     #[must_use]
     pub fn occluded_lane_pair(&self, rays: [&RayLanes; 2], mask: [u32; 2]) -> [u32; 2] {
+        self.occluded_lane_pair_from(None, rays, mask)
+    }
+
+    /// [`WideBvh::occluded_lane_pair`], the stream starting at `start` instead of the root
+    /// when given and cut from this tree: the same answers for rays that enter no node
+    /// outside the cut's subtrees (a shaft's rays, [`crate::accel::shaft::Cell::Entry`]).
+    /// (From the root where there is no stream.)
+    #[must_use]
+    pub(crate) fn occluded_lane_pair_from(&self, start: Option<&Cut>, rays: [&RayLanes; 2], mask: [u32; 2]) -> [u32; 2] {
         let mask = mask.map(|m| m & (u32::MAX >> (32 - LANES)));
         #[cfg(target_arch = "x86_64")]
         if self.level() >= SimdLevel::Avx2 && !self.watertight && (mask[0].count_ones() + mask[1].count_ones()) > 1 {
-            // SAFETY: the level is only ever Avx2 or Avx512 when the CPU reported AVX2; not watertight.
-            let hit = unsafe { self.stream_avx2::<true, _>(&LanePair(rays, mask), &mut []) };
+            let start = start.and_then(|c| c.node_in(self));
+            // SAFETY: the level is only ever Avx2 or Avx512 when the CPU reported AVX2; not
+            // watertight; `start` is a cut of this tree (`node_in`).
+            let hit = unsafe { self.stream_avx2::<true, _>(&LanePair(rays, mask), &mut [], start) };
             return [hit & (u32::MAX >> (32 - LANES)), hit >> LANES];
         }
         [self.occluded_lanes(rays[0], mask[0]), self.occluded_lanes(rays[1], mask[1])]

@@ -15,7 +15,7 @@
 //! it from the shaft with room to spare: more than the rounding of the triangle test
 //! could ever bridge (the bound is `ShaftGrid::triangle_margin`).
 
-use super::wide::{block_any_hit, leaf_blocks, Node8, Tri4, WideBvh, EMPTY, LEAF};
+use super::wide::{block_any_hit, leaf_blocks, Cut, Node8, Tri4, WideBvh, EMPTY, LEAF};
 use crate::math::aabb::Aabb;
 use crate::math::ray::{lanes_of, Ray, RayLanes, LANES};
 use glam::Vec3;
@@ -50,13 +50,23 @@ pub struct ShaftGrid {
     /// The largest coordinate magnitude of the mesh, the light and the grid: the scale of
     /// the triangle test's rounding.
     scale: f32,
-    /// Each cell's triangles, or `None` when its shaft meets too many.
-    cells: Box<[OnceLock<CellList>]>,
+    /// Each cell's triangles, or where its rays enter the tree.
+    cells: Box<[OnceLock<Cell>]>,
 }
 
-/// A cell's triangles, in blocks as the tree holds them; `None` when its shaft meets more
-/// than [`MAX_TRIANGLES`].
-type CellList = Option<Box<[Tri4]>>;
+/// What a cell's shadow rays are answered from.
+#[derive(Clone, Debug)]
+pub enum Cell {
+    /// The triangles its shaft meets (at most [`MAX_TRIANGLES`]), in blocks as the tree
+    /// holds them.
+    List(Box<[Tri4]>),
+    /// More than [`MAX_TRIANGLES`]: a cut of the tree through every subtree the shaft meets
+    /// (at most eight of them), where the cell's rays start their walk instead of at the
+    /// root (they skip the tests above the cut).
+    Entry(Box<Cut>),
+    /// The tree from its root (a watertight or empty tree, or a root that is a leaf).
+    Tree,
+}
 
 /// A plane `n·x = d` with unit `n`; the shaft lies on the side `n·x <= d`.
 type HalfSpace = (Vec3, f32);
@@ -143,7 +153,18 @@ impl ShaftGrid {
     /// and every thread.
     #[must_use]
     pub fn list<'a>(&'a self, bvh: &WideBvh, index: usize) -> Option<&'a [Tri4]> {
-        self.cells[index].get_or_init(|| self.make_list(bvh, index)).as_deref()
+        match self.cell(bvh, index) {
+            Cell::List(list) => Some(list),
+            _ => None,
+        }
+    }
+
+    /// What cell `index`'s rays are answered from: its list, or the node where they enter
+    /// `bvh`. Made on the first call for the cell; the same on every call and every
+    /// thread.
+    #[must_use]
+    pub fn cell<'a>(&'a self, bvh: &WideBvh, index: usize) -> &'a Cell {
+        self.cells[index].get_or_init(|| self.make_cell(bvh, index))
     }
 
     /// How far a triangle must lie from a shaft for no shadow ray in the shaft to meet it
@@ -165,10 +186,11 @@ impl ShaftGrid {
         }
     }
 
-    /// Walks `bvh` with the shaft of cell `index` and gathers the triangles it meets.
-    fn make_list(&self, bvh: &WideBvh, index: usize) -> CellList {
+    /// Walks `bvh` with the shaft of cell `index` and gathers the triangles it meets; past
+    /// [`MAX_TRIANGLES`], finds the cut of the tree where the cell's rays enter it.
+    fn make_cell(&self, bvh: &WideBvh, index: usize) -> Cell {
         if bvh.watertight || bvh.root == EMPTY {
-            return None;
+            return Cell::Tree;
         }
         let (lo, hi) = self.cell_box(index);
         // Where the shadow rays stop: `(1 - ε)·q + ε·o` for `q` on the light and `o` in the
@@ -210,7 +232,7 @@ impl ShaftGrid {
                         };
                         if !tri_out {
                             if found.len() == MAX_TRIANGLES {
-                                return None;
+                                return entry(bvh, &planes, pmin, pmax, slack).map_or(Cell::Tree, Cell::Entry);
                             }
                             found.push((b, lane));
                         }
@@ -238,8 +260,51 @@ impl ShaftGrid {
             }
             blocks.push(t);
         }
-        Some(blocks.into_boxed_slice())
+        Cell::List(blocks.into_boxed_slice())
     }
+}
+
+/// The cut of `bvh` through every subtree that the shaft (bounded by `planes` and the box
+/// `pmin..pmax`, out by more than `m`) meets: every node a ray of the shaft enters lies
+/// below one of its lanes (a box out of the shaft is never entered, see [`lanes_within`]),
+/// so a walk from the cut gives the ray the tree's answer while skipping the tests above
+/// it. Grown from the root's lanes in the shaft by opening, largest box first (the
+/// likeliest to be entered), each inner lane whose own lanes in the shaft still fit in
+/// eight. `None` when the root is a leaf.
+fn entry(bvh: &WideBvh, planes: &[HalfSpace], pmin: Vec3, pmax: Vec3, m: f32) -> Option<Box<Cut>> {
+    if bvh.root & LEAF != 0 {
+        return None;
+    }
+    // A node's lanes in the shaft: (code, box, area, whether opening it was tried).
+    let kept_lanes = |code: u32| {
+        let node = &bvh.nodes[code as usize / std::mem::size_of::<Node8>()];
+        let mut kept = lanes_within(node, planes, pmin, pmax, m);
+        let mut out = Vec::new();
+        while kept != 0 {
+            let l = kept.trailing_zeros() as usize;
+            kept &= kept - 1;
+            let lo = Vec3::new(node.lo[0][l], node.lo[1][l], node.lo[2][l]);
+            let hi = Vec3::new(node.hi[0][l], node.hi[1][l], node.hi[2][l]);
+            let e = hi - lo;
+            out.push((node.child[l], lo, hi, e.x * e.y + e.y * e.z + e.z * e.x, false));
+        }
+        out
+    };
+    let mut cut = kept_lanes(bvh.root);
+    // The largest inner lane not tried yet, opened if its lanes fit.
+    while let Some(i) = (0..cut.len()).filter(|&i| cut[i].0 & LEAF == 0 && !cut[i].4).max_by(|&a, &b| cut[a].3.total_cmp(&cut[b].3)) {
+        let below = kept_lanes(cut[i].0);
+        if cut.len() - 1 + below.len() <= 8 {
+            cut.swap_remove(i);
+            cut.extend(below);
+        } else {
+            cut[i].4 = true;
+        }
+    }
+    // Largest box first, as the tree orders its lanes for any-hit walks.
+    cut.sort_by(|a, b| b.3.total_cmp(&a.3));
+    let lanes: Vec<(u32, Vec3, Vec3)> = cut.iter().map(|&(code, lo, hi, _, _)| (code, lo, hi)).collect();
+    bvh.cut(&lanes).map(Box::new)
 }
 
 /// The lanes of `node` with a child whose box is not out of the shaft (bounded by
@@ -504,6 +569,76 @@ mod tests {
             }
             assert!(listed > 300 && traced > 300, "seed {seed}: {listed} fans from listed cells, {traced} from cells that trace");
             assert!(blocked > 500 && open > 500, "seed {seed}: {blocked} blocked, {open} open");
+        }
+    }
+
+    /// The cells whose shafts meet too many triangles start their rays' walks at a cut of
+    /// the tree: every ray gets the tree's answer from the root, in streams of one to four
+    /// origins, and the cuts go below the root's own lanes (else they would skip nothing).
+    /// A cut is used only on the tree it was cut from.
+    #[test]
+    fn cuts_answer_as_the_tree() {
+        for seed in [3, 4] {
+            let (mesh, corner, u, v) = room(seed);
+            let bvh = wide(&mesh);
+            let grid = ShaftGrid::new(&mesh.aabb(), corner, u, v, MAX_CELLS).unwrap();
+            let root = &bvh.nodes[bvh.root as usize / std::mem::size_of::<Node8>()];
+            let mut rng = Sampler::from_seed(seed + 20);
+            let (mut streams, mut deeper, mut blocked, mut open) = (0, 0, 0, 0);
+            for round in 0..3000 {
+                // A cell with a cut, and up to four origins in it.
+                let y = if round % 2 == 0 { 1e-3 } else { 6.0 * rng.next_f32() };
+                let origin = Vec3::new(20.0 * rng.next_f32() - 10.0, y, 20.0 * rng.next_f32() - 10.0);
+                let Some(c) = grid.cell_of(origin) else { continue };
+                let Cell::Entry(cut) = grid.cell(bvh, c) else { continue };
+                let node = cut.node_in(bvh).expect("cut from this tree");
+                deeper += usize::from(node.child.iter().any(|&code| code != EMPTY && !root.child.contains(&code)));
+                let origins: Vec<Vec3> = (0..1 + round % 4)
+                    .map(|i| if i == 0 { origin } else { origin + Vec3::new(1e-3, 0.0, 1e-3) * i as f32 })
+                    .filter(|&o| grid.cell_of(o) == Some(c))
+                    .collect();
+                // Two batches of sixteen, each lane from one of the origins.
+                let batches: [Vec<RaySegment>; 2] = std::array::from_fn(|b| {
+                    let mut rays = Vec::new();
+                    for (i, &o) in origins.iter().enumerate() {
+                        rays.extend(fan(o, corner, u, v, &mut rng, round + i + b).into_iter().take(LANES / 2));
+                    }
+                    let first = rays[0];
+                    rays.resize(LANES, first);
+                    let n = rays.len();
+                    rays.rotate_left(b * LANES / 2 % n);
+                    rays
+                });
+                let lanes = [RayLanes::new(&batches[0]), RayLanes::new(&batches[1])];
+                let mask = [0xffff, if round % 3 == 0 { 0 } else { (rng.next_f32().to_bits() >> 5) & 0xffff }];
+                let got = bvh.occluded_lane_pair_from(Some(cut), [&lanes[0], &lanes[1]], mask);
+                streams += 1;
+                for b in 0..2 {
+                    for (k, r) in batches[b].iter().enumerate() {
+                        let tree = bvh.occluded(&r.ray(), r.t_min, r.t_max);
+                        assert_eq!(
+                            got[b] & (1 << k) != 0,
+                            mask[b] & (1 << k) != 0 && tree,
+                            "seed {seed}, round {round}, batch {b}, ray {k}: {r:?}"
+                        );
+                        if mask[b] & (1 << k) != 0 && r.ray().is_valid() && r.t_max > 0.0 {
+                            *(if tree { &mut blocked } else { &mut open }) += 1;
+                        }
+                    }
+                }
+            }
+            assert!(
+                streams > 300 && deeper > streams / 2,
+                "seed {seed}: {streams} streams from cuts, {deeper} of them below the root's lanes"
+            );
+            assert!(blocked > 1000 && open > 1000, "seed {seed}: {blocked} blocked, {open} open");
+            // Another tree (a copy: other arrays) does not take the cut.
+            let copy = bvh.clone();
+            let cut = (0..grid.cells.len()).find_map(|c| match grid.cells[c].get() {
+                Some(Cell::Entry(cut)) => Some(cut),
+                _ => None,
+            });
+            assert!(cut.unwrap().node_in(&copy).is_none() && cut.unwrap().node_in(bvh).is_some());
         }
     }
 

@@ -438,6 +438,56 @@ impl WideBvh {
     }
 }
 
+/// A cut of a tree: up to eight of its subtrees below the root, their boxes and codes as
+/// the lanes of one node, where a walk may start instead of at the root when those
+/// subtrees hold every node its rays can enter (a shaft's cut, `accel::shaft`: rays from
+/// one cell towards one light). Made by [`WideBvh::cut`], and used only on the tree it was
+/// cut from (the tree's arrays are its stamp), so its codes are always that tree's.
+#[derive(Clone, Debug)]
+pub struct Cut {
+    node: Node8,
+    tree: [usize; 4],
+}
+
+impl Cut {
+    /// The cut's node, when `bvh` is the tree it was cut from.
+    #[inline(always)]
+    pub(crate) fn node_in(&self, bvh: &WideBvh) -> Option<&Node8> {
+        (self.tree == bvh.stamp()).then_some(&self.node)
+    }
+}
+
+impl WideBvh {
+    /// What a [`Cut`] of this tree is stamped with: its arrays' addresses and lengths.
+    fn stamp(&self) -> [usize; 4] {
+        [self.nodes.as_ptr() as usize, self.nodes.len(), self.tris.as_ptr() as usize, self.tris.len()]
+    }
+
+    /// The cut whose lanes are `lanes` (child code, box low and high corners), at most
+    /// eight, in that order: `None` when there are more, or when a code is not that of a
+    /// node or leaf of this tree below its root (so the walk from the cut keeps within the
+    /// stack of the tree's depth).
+    pub(crate) fn cut(&self, lanes: &[(u32, Vec3, Vec3)]) -> Option<Cut> {
+        let size = std::mem::size_of::<Node8>();
+        let valid = |code: u32| {
+            code != self.root
+                && if code & LEAF != 0 {
+                    leaf_blocks(code).end <= self.tris.len()
+                } else {
+                    (code as usize).is_multiple_of(size) && (code as usize) < self.nodes.len() * size
+                }
+        };
+        if lanes.len() > 8 || !lanes.iter().all(|l| valid(l.0)) {
+            return None;
+        }
+        let mut node = Node8::EMPTY;
+        for (lane, &(code, lo, hi)) in lanes.iter().enumerate() {
+            node.set(lane, &crate::math::aabb::Aabb::new(lo, hi), code);
+        }
+        Some(Cut { node, tree: self.stamp() })
+    }
+}
+
 /// The traversal stack entries a tree of `depth` levels of wide nodes needs: at most seven
 /// pushed per level, and eight by the last.
 pub(crate) const fn stack_entries(depth: usize) -> usize {

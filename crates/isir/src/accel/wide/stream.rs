@@ -123,12 +123,23 @@ impl WideBvh {
     /// `out` is not written (it may be empty) and the returned mask has bit `i` set when
     /// ray `i` hit.
     ///
+    /// `start`, when given, is the node the walk begins with instead of the root: a node
+    /// whose lanes hold every subtree of this tree the rays may enter (a shaft's cut of
+    /// the tree, [`crate::accel::shaft::ShaftGrid`]), so that the rays skip the tests
+    /// above it.
+    ///
     /// # Safety
     /// The CPU must have what [`SimdLevel::Avx2`] names, and the tree must not be
-    /// watertight (the stream has only the Möller–Trumbore block test).
+    /// watertight (the stream has only the Möller–Trumbore block test). `start`'s lanes
+    /// must hold this tree's codes (or [`EMPTY`]) with their boxes.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,popcnt,bmi1,lzcnt")]
-    pub(crate) unsafe fn stream_avx2<const ANY: bool, R: StreamRays + ?Sized>(&self, rays: &R, out: &mut [Option<MeshHit>]) -> u32 {
+    pub(crate) unsafe fn stream_avx2<const ANY: bool, R: StreamRays + ?Sized>(
+        &self,
+        rays: &R,
+        out: &mut [Option<MeshHit>],
+        start: Option<&Node8>,
+    ) -> u32 {
         use std::arch::x86_64::*;
         debug_assert!(rays.count() <= STREAM && (ANY || out.len() >= rays.count()) && !self.watertight);
         let mut pre: [std::mem::MaybeUninit<RayPre>; STREAM] = [const { std::mem::MaybeUninit::uninit() }; STREAM];
@@ -173,13 +184,18 @@ impl WideBvh {
         let one_origin = lanes_of(live).all(|i| same_origin(pre(i), pre(first)));
         let mut stack = [const { std::mem::MaybeUninit::<(u32, u32)>::uninit() }; STACK_SIZE];
         let mut sp = 0usize;
-        let mut cur = self.root;
+        // With a start node, the first node is that one (code 0 only stands for "inner").
+        let mut first_node = start;
+        let mut cur = if start.is_some() { 0 } else { self.root };
         let mut cur_mask = live;
         'walk: loop {
             if cur & LEAF == 0 {
                 // ---- Inner node: each ray's test of the eight boxes ----
-                // SAFETY: inner-node codes are byte offsets of nodes, written by `convert`.
-                let node = unsafe { self.node_at(cur) };
+                let node = match first_node.take() {
+                    Some(n) => n,
+                    // SAFETY: inner-node codes are byte offsets of nodes, written by `convert`.
+                    None => unsafe { self.node_at(cur) },
+                };
                 // Per child: the rays that enter it (bit i for ray i), and the nearest of
                 // their entry distances, by which the children are ordered.
                 // SAFETY: the CPU has AVX2 (this function's features).
