@@ -283,7 +283,20 @@ fn entry(bvh: &WideBvh, planes: &[HalfSpace], pmin: Vec3, pmax: Vec3, m: f32, bl
     if bvh.root & LEAF != 0 {
         return None;
     }
-    // A node's lanes in the shaft: (code, box, area, whether opening it was tried).
+    // A leaf's runs of blocks with a triangle that may meet the shaft.
+    let runs_of = |code: u32| {
+        let mut runs: Vec<(usize, usize)> = Vec::new();
+        for b in leaf_blocks(code).filter(|&b| block_meets(b)) {
+            match runs.last_mut() {
+                Some(run) if run.1 == b => run.1 = b + 1,
+                _ => runs.push((b, b + 1)),
+            }
+        }
+        runs
+    };
+    let leaf = |(first, end): (usize, usize)| LEAF | ((end - first - 1) as u32) << BLOCKS_SHIFT | first as u32;
+    // A node's lanes in the shaft: (code, box, area, whether opening it was tried); a leaf
+    // with no block in the shaft left out, one with a single run of them cut to it.
     let kept_lanes = |code: u32| {
         let node = &bvh.nodes[code as usize / std::mem::size_of::<Node8>()];
         let mut kept = lanes_within(node, planes, pmin, pmax, m);
@@ -291,10 +304,18 @@ fn entry(bvh: &WideBvh, planes: &[HalfSpace], pmin: Vec3, pmax: Vec3, m: f32, bl
         while kept != 0 {
             let l = kept.trailing_zeros() as usize;
             kept &= kept - 1;
+            let mut child = node.child[l];
+            if child & LEAF != 0 {
+                match runs_of(child)[..] {
+                    [] => continue,
+                    [run] => child = leaf(run),
+                    _ => {}
+                }
+            }
             let lo = Vec3::new(node.lo[0][l], node.lo[1][l], node.lo[2][l]);
             let hi = Vec3::new(node.hi[0][l], node.hi[1][l], node.hi[2][l]);
             let e = hi - lo;
-            out.push((node.child[l], lo, hi, e.x * e.y + e.y * e.z + e.z * e.x, false));
+            out.push((child, lo, hi, e.x * e.y + e.y * e.z + e.z * e.x, false));
         }
         out
     };
@@ -322,21 +343,14 @@ fn entry(bvh: &WideBvh, planes: &[HalfSpace], pmin: Vec3, pmax: Vec3, m: f32, bl
             continue;
         }
         let blocks = leaf_blocks(code);
-        let mut runs: Vec<(usize, usize)> = Vec::new();
-        for b in blocks.clone().filter(|&b| block_meets(b)) {
-            match runs.last_mut() {
-                Some(run) if run.1 == b => run.1 = b + 1,
-                _ => runs.push((b, b + 1)),
-            }
-        }
+        let runs = runs_of(code);
         if runs.len() == 1 && runs[0] == (blocks.start, blocks.end) || cut.len() - 1 + runs.len() > 8 {
             i += 1;
             continue;
         }
         cut.remove(i);
-        for (n, &(first, end)) in runs.iter().enumerate() {
-            let code = LEAF | ((end - first - 1) as u32) << BLOCKS_SHIFT | first as u32;
-            cut.insert(i + n, (code, lo, hi, area, true));
+        for (n, &run) in runs.iter().enumerate() {
+            cut.insert(i + n, (leaf(run), lo, hi, area, true));
         }
         i += runs.len();
     }
