@@ -27,8 +27,8 @@ pub const CELLS_ALONG: usize = 128;
 /// PERF: the conference room at 32 spp, 128 cells along: 12, 24 and 48 triangles 4.64,
 /// 4.70 and 5.02 s of CPU (96 cells along and 16 triangles 4.67; 256 and 24, 4.93).
 pub const MAX_TRIANGLES: usize = 24;
-/// At most this many cells in a scene, shared by its quad lights (24 bytes each until
-/// asked for): 12 MB.
+/// At most this many cells in a scene, shared by its quad lights (32 bytes each until
+/// asked for): 16 MB.
 pub const MAX_CELLS: usize = 1 << 19;
 /// How far short of the light a shadow ray stops: `t_max` is `1 - SHADOW_EPSILON` of the
 /// distance ([`crate::math::ray::spawn_ray_to`]).
