@@ -562,6 +562,20 @@ mod tests {
         (mesh, Vec3::new(-4.0, 8.0, -3.0), Vec3::new(8.0, 0.0, 0.0), Vec3::new(0.0, 0.0, 6.0))
     }
 
+    /// [`room`] and the grid of its light.
+    fn room_and_grid(seed: u64) -> (TriangleMesh, ShaftGrid, [Vec3; 3]) {
+        let (mesh, corner, u, v) = room(seed);
+        let grid = ShaftGrid::new(&mesh.aabb(), corner, u, v, MAX_CELLS).unwrap();
+        (mesh, grid, [corner, u, v])
+    }
+
+    /// A point of [`room`]: on the floor in even rounds, in the air among the triangles in
+    /// odd ones.
+    fn origin_in_room(rng: &mut Sampler, round: usize) -> Vec3 {
+        let y = if round % 2 == 0 { 1e-3 } else { 6.0 * rng.next_f32() };
+        Vec3::new(20.0 * rng.next_f32() - 10.0, y, 20.0 * rng.next_f32() - 10.0)
+    }
+
     fn wide(mesh: &TriangleMesh) -> &WideBvh {
         let MeshAccel::Wide(w) = mesh.accel() else { panic!("the SAH build is a wide tree") };
         w
@@ -590,15 +604,12 @@ mod tests {
     #[test]
     fn lists_answer_as_the_tree() {
         for seed in [1, 2] {
-            let (mesh, corner, u, v) = room(seed);
+            let (mesh, grid, [corner, u, v]) = room_and_grid(seed);
             let bvh = wide(&mesh);
-            let grid = ShaftGrid::new(&mesh.aabb(), corner, u, v, MAX_CELLS).unwrap();
             let mut rng = Sampler::from_seed(seed + 10);
             let (mut listed, mut traced, mut blocked, mut open) = (0, 0, 0, 0);
             for round in 0..3000 {
-                // Points on the floor and in the air among the triangles.
-                let y = if round % 2 == 0 { 1e-3 } else { 6.0 * rng.next_f32() };
-                let origin = Vec3::new(20.0 * rng.next_f32() - 10.0, y, 20.0 * rng.next_f32() - 10.0);
+                let origin = origin_in_room(&mut rng, round);
                 let rays = fan(origin, corner, u, v, &mut rng, round);
                 let Some(list) = grid.cell_of(origin).and_then(|c| grid.list(bvh, c)) else {
                     traced += 1;
@@ -630,16 +641,14 @@ mod tests {
     #[test]
     fn cuts_answer_as_the_tree() {
         for seed in [3, 4] {
-            let (mesh, corner, u, v) = room(seed);
+            let (mesh, grid, [corner, u, v]) = room_and_grid(seed);
             let bvh = wide(&mesh);
-            let grid = ShaftGrid::new(&mesh.aabb(), corner, u, v, MAX_CELLS).unwrap();
             let root = &bvh.nodes[bvh.root as usize / std::mem::size_of::<Node8>()];
             let mut rng = Sampler::from_seed(seed + 20);
             let (mut streams, mut deeper, mut blocked, mut open) = (0, 0, 0, 0);
             for round in 0..3000 {
                 // A cell with a cut, and up to four origins in it.
-                let y = if round % 2 == 0 { 1e-3 } else { 6.0 * rng.next_f32() };
-                let origin = Vec3::new(20.0 * rng.next_f32() - 10.0, y, 20.0 * rng.next_f32() - 10.0);
+                let origin = origin_in_room(&mut rng, round);
                 let Some(c) = grid.cell_of(origin) else { continue };
                 let Cell::Entry(cut) = grid.cell(bvh, c) else { continue };
                 let node = cut.node_in(bvh).expect("cut from this tree");

@@ -441,7 +441,7 @@ impl WideBvh {
 /// A cut of a tree: up to eight of its subtrees below the root, their boxes and codes as
 /// the lanes of one node, where a walk may start instead of at the root when those
 /// subtrees hold every node its rays can enter (a shaft's cut, `accel::shaft`: rays from
-/// one cell towards one light). Made by [`WideBvh::cut`], and used only on the tree it was
+/// one cell towards one light). Made by `WideBvh::cut`, and used only on the tree it was
 /// cut from (the tree's arrays are its stamp), so its codes are always that tree's.
 #[derive(Clone, Debug)]
 pub struct Cut {
