@@ -699,6 +699,16 @@ mod tests {
                 _ => None,
             });
             assert!(cut.unwrap().node_in(&copy).is_none() && cut.unwrap().node_in(bvh).is_some());
+            // No cut of codes that are not this tree's below its root, or of more than eight.
+            let (lo, hi) = (Vec3::ZERO, Vec3::ONE);
+            let child = *root.child.iter().find(|&&c| c != EMPTY).unwrap();
+            assert!(bvh.cut(&[(child, lo, hi)]).is_some());
+            assert!(bvh.cut(&[(child, lo, hi); 9]).is_none());
+            assert!(bvh.cut(&[(bvh.root, lo, hi)]).is_none());
+            assert!(bvh.cut(&[(EMPTY, lo, hi)]).is_none());
+            assert!(bvh.cut(&[(LEAF | bvh.tris.len() as u32, lo, hi)]).is_none());
+            assert!(bvh.cut(&[((bvh.nodes.len() * std::mem::size_of::<Node8>()) as u32, lo, hi)]).is_none());
+            assert!(bvh.cut(&[(child + 4, lo, hi)]).is_none() || child & LEAF != 0);
         }
     }
 

@@ -534,8 +534,8 @@ fn listed_answers<'a>(
         let o = glam::Vec3::from_array(o.map(f32::from_bits));
         let list = match grid.cell_of(o).map(|c| grid.cell(bvh, c)) {
             Some(Cell::List(list)) => list,
-            Some(Cell::Entry(node)) => {
-                starts.add(Some(node), batch, same);
+            Some(Cell::Entry(cut)) => {
+                starts.add(Some(cut), batch, same);
                 continue;
             }
             _ => {
