@@ -572,7 +572,7 @@ mod tests {
     /// A point of [`room`]: on the floor in even rounds, in the air among the triangles in
     /// odd ones.
     fn origin_in_room(rng: &mut Sampler, round: usize) -> Vec3 {
-        let y = if round % 2 == 0 { 1e-3 } else { 6.0 * rng.next_f32() };
+        let y = if round.is_multiple_of(2) { 1e-3 } else { 6.0 * rng.next_f32() };
         Vec3::new(20.0 * rng.next_f32() - 10.0, y, 20.0 * rng.next_f32() - 10.0)
     }
 
