@@ -380,9 +380,10 @@ impl Scene {
             [listed_answers(grid, bvh, rays[0], live[0], 0, &mut starts), listed_answers(grid, bvh, rays[1], live[1], 1, &mut starts)];
         let mut traced = [0, 0];
         // The other rays, from each cut where their cells enter the tree (`shaft` answers
-        // only in a scene of one mesh, the pair's mesh).
+        // only in a scene of one mesh, the pair's mesh); the rays' validity found once.
+        let valid = if starts.len == 0 { [0, 0] } else { valid_masks(rays, live) };
         for &(start, masks) in &starts.groups[..starts.len] {
-            let t = bvh.occluded_lane_pair_from(start, rays, valid_masks(rays, masks));
+            let t = bvh.occluded_lane_pair_from(start, rays, [masks[0] & valid[0], masks[1] & valid[1]]);
             traced = [traced[0] | t[0], traced[1] | t[1]];
         }
         [answered[0].1 | traced[0], answered[1].1 | traced[1]]
@@ -485,11 +486,8 @@ struct Starts<'a> {
 impl<'a> Starts<'a> {
     /// Lanes `mask` of batch `batch` start at `start`.
     fn add(&mut self, start: Option<&'a Cut>, batch: usize, mask: u32) {
-        let same = |s: Option<&Cut>| match (s, start) {
-            (Some(a), Some(b)) => std::ptr::eq(a, b),
-            (a, b) => a.is_none() && b.is_none(),
-        };
-        if let Some(g) = self.groups[..self.len].iter_mut().find(|g| same(g.0)) {
+        let at = |s: Option<&Cut>| s.map(std::ptr::from_ref);
+        if let Some(g) = self.groups[..self.len].iter_mut().find(|g| at(g.0) == at(start)) {
             g.1[batch] |= mask;
         } else {
             self.groups[self.len] = (start, [0, 0]);
