@@ -20,7 +20,7 @@ use crate::geometry::{Hit, HitRows};
 use crate::lights::{Light, LightSampler};
 use crate::materials::Material;
 use crate::math::color::Color;
-use crate::math::ray::{lane_mask, lanes_of, spawn_lanes, RayLanes, ShadowRays, LANES};
+use crate::math::ray::{lane_mask, lanes_of, spawn_lanes, RayLanes, LANES};
 use crate::math::sampling::{cosine_hemisphere_lanes, Sampler};
 use crate::scene::Scene;
 use glam::{Vec2, Vec3};
@@ -279,17 +279,12 @@ fn direct_lanes(
 ) {
     let n = samplers.len();
     let mut li = [Color::ZERO; LANES];
-    // Quad lights' shadow rays leave from each hit's offset origins (point lights set up
-    // theirs in `LightLanes`). PERF: made only in scenes with a quad light: the array of
-    // `None`s built and copied per call was 1.4% of tp4-bunny.
-    let mut shadow_rays: Option<[Option<ShadowRays>; LANES]> = None;
     for (index, light) in scene.lights.iter().enumerate() {
         let light_sampler = light.sampler();
         if let LightSampler::Quad { .. } = light_sampler {
             let m = light_samples.max(1);
             if (BATCH_FROM..=(BATCH / 2) as u32).contains(&m) {
-                let shadow_rays = shadow_rays.get_or_insert_with(|| std::array::from_fn(|k| hits[k].as_ref().map(Hit::shadow_rays)));
-                quad_groups::<2>(scene, rays, hits, index, &light_sampler, shadow_rays, m as usize, samplers, counters, &mut li);
+                quad_groups::<2>(scene, rays, hits, index, &light_sampler, m as usize, samplers, counters, &mut li);
                 continue;
             }
             if m < BATCH_FROM {
@@ -299,8 +294,7 @@ fn direct_lanes(
             // Where two batches go as one stream (a scene of one mesh); elsewhere the
             // pairs measured slower than lane by lane (tp3-quad-soft 0.37 -> 0.38 s).
             if m <= BATCH as u32 && scene.pair_mesh().is_some() {
-                let shadow_rays = shadow_rays.get_or_insert_with(|| std::array::from_fn(|k| hits[k].as_ref().map(Hit::shadow_rays)));
-                quad_groups::<1>(scene, rays, hits, index, &light_sampler, shadow_rays, m as usize, samplers, counters, &mut li);
+                quad_groups::<1>(scene, rays, hits, index, &light_sampler, m as usize, samplers, counters, &mut li);
                 continue;
             }
             // Each hit's shadow rays made where they are used. PERF: an array of the
@@ -409,7 +403,6 @@ fn quad_groups<const PER: usize>(
     hits: &[Option<Hit>; LANES],
     light: usize,
     light_sampler: &LightSampler,
-    shadow_rays: &[Option<ShadowRays>; LANES],
     m: usize,
     samplers: &mut [Sampler],
     counters: &mut RayCounters,
@@ -432,11 +425,11 @@ fn quad_groups<const PER: usize>(
         let mut live = [0u32; 2];
         let mut filled = [false; 4];
         for (i, k) in (first..(first + 2 * PER).min(n)).enumerate() {
-            let (Some(hit), Some(sr)) = (&hits[k], &shadow_rays[k]) else { continue };
+            let Some(hit) = &hits[k] else { continue };
             let mut xi = [Vec2::ZERO; BATCH];
             samplers[k].fill_2d(&mut xi[..m]);
             let batch = &mut batches[i];
-            batch.fill(light_sampler, sr, hit.normal, &xi, m);
+            batch.fill(light_sampler, &hit.shadow_rays(), hit.normal, &xi, m);
             let lane_live = live_mask(&batch.live, m);
             counters.shadow += u64::from(lane_live.count_ones());
             live[i / PER] |= lane_live << ((i % PER) * span);
