@@ -226,15 +226,29 @@ impl QuadBatch {
         // PERF: tp6-glass-quad Whitted 0.942 -> 0.864 s with the select, conference
         // 1.316 -> 1.232; the terms as SIMD loops then took the conference to 1.46 from
         // 1.55 (7 runs; tp6-glass-quad within noise).
-        let mut term = [[0f32; BATCH]; 3];
+        // PERF: eight lanes' terms when `count` is at most 8 (the conference room's eight
+        // light samples), as `fill` computes them.
+        if count <= BATCH / 2 {
+            self.add_seen_lanes::<{ BATCH / 2 }>(f, seen, count, sum);
+        } else {
+            self.add_seen_lanes::<BATCH>(f, seen, count, sum);
+        }
+    }
+
+    /// [`Self::add_seen`] from the terms of the first `W` lanes (`count` at most `W`).
+    #[inline(always)]
+    #[allow(clippy::needless_range_loop)] // `j` indexes five arrays and the mask
+    fn add_seen_lanes<const W: usize>(&self, f: &[[f32; BATCH]; 3], seen: u32, count: usize, sum: &mut Color) {
+        debug_assert!(count <= W);
+        let mut term = [[0f32; W]; 3];
         for c in 0..3 {
-            for j in 0..BATCH {
+            for j in 0..W {
                 let t = f[c][j] * self.radiance[c][j] * self.cos[j];
                 term[c][j] = if (seen >> j) & 1 != 0 { t } else { 0.0 };
             }
         }
         let mut s = *sum;
-        for j in 0..count {
+        for j in 0..count.min(W) {
             s += Color::new(term[0][j], term[1][j], term[2][j]);
         }
         *sum = s;
