@@ -424,12 +424,22 @@ fn quad_groups<const PER: usize>(
         // Lanes `first + i`: batch `i / PER`, its share `i % PER`.
         let mut live = [0u32; 2];
         let mut filled = [false; 4];
+        // The group's random numbers, then its batches, one after the other: each batch's
+        // chain of square roots and divisions overlaps the next one's.
+        let mut xi = [[Vec2::ZERO; BATCH]; 4];
+        for (i, k) in (first..(first + 2 * PER).min(n)).enumerate() {
+            if hits[k].is_some() {
+                samplers[k].fill_2d(&mut xi[i][..m]);
+            }
+        }
+        for (i, k) in (first..(first + 2 * PER).min(n)).enumerate() {
+            if let Some(hit) = &hits[k] {
+                batches[i].fill(light_sampler, &hit.shadow_rays(), hit.normal, &xi[i], m);
+            }
+        }
         for (i, k) in (first..(first + 2 * PER).min(n)).enumerate() {
             let Some(hit) = &hits[k] else { continue };
-            let mut xi = [Vec2::ZERO; BATCH];
-            samplers[k].fill_2d(&mut xi[..m]);
             let batch = &mut batches[i];
-            batch.fill(light_sampler, &hit.shadow_rays(), hit.normal, &xi, m);
             let lane_live = live_mask(&batch.live, m);
             counters.shadow += u64::from(lane_live.count_ones());
             live[i / PER] |= lane_live << ((i % PER) * span);
