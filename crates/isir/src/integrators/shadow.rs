@@ -108,7 +108,29 @@ impl QuadBatch {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     fn fill_avx2<const W: usize>(&mut self, light: &LightSampler, rays: &ShadowRays, normal: Vec3, xi: &[Vec2; BATCH]) {
-        self.fill_portable::<W>(light, rays, rays.both_origins_avx2(), normal, xi);
+        use std::arch::x86_64::{
+            _mm256_castpd_ps, _mm256_castps_pd, _mm256_loadu_ps, _mm256_permute4x64_pd, _mm256_shuffle_ps, _mm256_storeu_ps,
+        };
+        // The samples' two numbers as two rows, eight lanes per pair of loads.
+        // PERF: left to the compiler, each axis of the light point reloaded the pairs at
+        // odd offsets, loads the random numbers' stores could not forward.
+        let (mut xa, mut xc) = ([0f32; BATCH], [0f32; BATCH]);
+        for h in 0..W / 8 {
+            // SAFETY: sixteen floats (eight `Vec2`s, x then y) read from `xi[8h..8h + 8]`,
+            // eight written to each row at `8h`.
+            unsafe {
+                let p = xi[8 * h..].as_ptr().cast::<f32>();
+                let (a, b) = (_mm256_loadu_ps(p), _mm256_loadu_ps(p.add(8)));
+                // [x0 x1 x4 x5 | x2 x3 x6 x7] -> x0..x7 (and the same for y).
+                let x =
+                    _mm256_castpd_ps(_mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_castps_pd(_mm256_shuffle_ps::<0b10_00_10_00>(a, b))));
+                let y =
+                    _mm256_castpd_ps(_mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_castps_pd(_mm256_shuffle_ps::<0b11_01_11_01>(a, b))));
+                _mm256_storeu_ps(xa[8 * h..].as_mut_ptr(), x);
+                _mm256_storeu_ps(xc[8 * h..].as_mut_ptr(), y);
+            }
+        }
+        self.fill_rows::<W>(light, rays, rays.both_origins_avx2(), normal, &xa, &xc);
     }
 
     /// The first `W` lanes (`W` at most [`BATCH`]; the others are left as they are);
@@ -123,6 +145,25 @@ impl QuadBatch {
         normal: Vec3,
         xi: &[Vec2; BATCH],
     ) {
+        let (mut xa, mut xc) = ([0f32; BATCH], [0f32; BATCH]);
+        for j in 0..W {
+            (xa[j], xc[j]) = (xi[j].x, xi[j].y);
+        }
+        self.fill_rows::<W>(light, rays, origins, normal, &xa, &xc);
+    }
+
+    /// [`Self::fill_portable`] from the samples' numbers as rows (`xa[j]`, `xc[j]`: `xi[j]`).
+    #[inline(always)]
+    #[allow(clippy::needless_range_loop)] // one index into many arrays: the loops vectorise
+    fn fill_rows<const W: usize>(
+        &mut self,
+        light: &LightSampler,
+        rays: &ShadowRays,
+        origins: [Vec3; 2],
+        normal: Vec3,
+        xa: &[f32; BATCH],
+        xc: &[f32; BATCH],
+    ) {
         let LightSampler::Quad { corner, u, v, normal: ln, area, emitted, .. } = *light else {
             unreachable!("quad lights only");
         };
@@ -132,10 +173,6 @@ impl QuadBatch {
         // The operations of `LightSampler::sample`, `Vec3::dot`, `Vec3::length` and
         // `ShadowRays::to`, in their order, so every float is the same. Stage by stage
         // over the lanes, without branches, so that each loop vectorises.
-        let (mut xa, mut xc) = ([0f32; BATCH], [0f32; BATCH]);
-        for j in 0..W {
-            (xa[j], xc[j]) = (xi[j].x, xi[j].y);
-        }
         let (c, uu, vv, xx, n, sn, g) =
             (corner.to_array(), u.to_array(), v.to_array(), x.to_array(), ln.to_array(), normal.to_array(), ng.to_array());
         let mut to = [[0f32; BATCH]; 3];
