@@ -424,6 +424,7 @@ fn quad_groups<const PER: usize>(
         // Lanes `first + i`: batch `i / PER`, its share `i % PER`.
         let mut live = [0u32; 2];
         let mut filled = [false; 4];
+        let mut same = [None; 4];
         // The group's random numbers, then its batches, one after the other: each batch's
         // chain of square roots and divisions overlaps the next one's.
         let mut xi = [[Vec2::ZERO; BATCH]; 4];
@@ -445,23 +446,30 @@ fn quad_groups<const PER: usize>(
             live[i / PER] |= lane_live << ((i % PER) * span);
             // The whole share at once: lanes past `m` are not live, so never traced.
             both[i / PER].copy_lanes((i % PER) * span, &batch.rays, span);
-            batch.shade_into(scene.material(hit), &rays.ray(k), hit, &mut f[i]);
+            // A material of one value in every direction needs no lanes of values.
+            let material = scene.material(hit);
+            same[i] = material.shade_any_direction(hit);
+            if same[i].is_none() {
+                batch.shade_into(material, &rays.ray(k), hit, &mut f[i]);
+            }
             filled[i] = true;
         }
         let blocked = if live == [0, 0] { [0, 0] } else { scene.occluded_pair_to_light(light, [&both[0], &both[1]], live) };
         let seen: [u32; 4] = std::array::from_fn(|i| (live[i / PER % 2] & !blocked[i / PER % 2]) >> ((i % PER) * span));
-        add_groups_seen::<PER>(&batches, &f, filled, seen, m, &mut li[first..]);
+        add_groups_seen::<PER>(&batches, &f, same, filled, seen, m, &mut li[first..]);
     }
 }
 
 /// Adds to `li[i]` each filled batch `i`'s average of its seen samples
-/// ([`QuadBatch::add_seen`], then divided by `m`): the end of [`quad_groups`]' group, its
+/// ([`QuadBatch::add_seen`] with the values `f[i]`, or [`QuadBatch::add_seen_same`] with
+/// `same[i]` where it is given, then divided by `m`): the end of [`quad_groups`]' group, its
 /// SIMD loops compiled for AVX2 where the CPU has it.
 /// PERF: compiled for SSE2 with the rest of `direct_lanes`, the sixteen lanes' terms and
 /// the sums were a third of that function's time (conference room).
 fn add_groups_seen<const PER: usize>(
     batches: &[QuadBatch; 4],
     f: &[[[f32; BATCH]; 3]; 4],
+    same: [Option<Color>; 4],
     filled: [bool; 4],
     seen: [u32; 4],
     m: usize,
@@ -471,6 +479,7 @@ fn add_groups_seen<const PER: usize>(
     fn add<const PER: usize>(
         batches: &[QuadBatch; 4],
         f: &[[[f32; BATCH]; 3]; 4],
+        same: [Option<Color>; 4],
         filled: [bool; 4],
         seen: [u32; 4],
         m: usize,
@@ -478,7 +487,10 @@ fn add_groups_seen<const PER: usize>(
     ) {
         for i in (0..2 * PER).filter(|&i| filled[i]) {
             let mut sum = Color::ZERO;
-            batches[i].add_seen(&f[i], seen[i], m, &mut sum);
+            match same[i] {
+                Some(c) => batches[i].add_seen_same(c, seen[i], m, &mut sum),
+                None => batches[i].add_seen(&f[i], seen[i], m, &mut sum),
+            }
             li[i] += sum / m as f32;
         }
     }
@@ -488,18 +500,19 @@ fn add_groups_seen<const PER: usize>(
         fn avx2<const PER: usize>(
             batches: &[QuadBatch; 4],
             f: &[[[f32; BATCH]; 3]; 4],
+            same: [Option<Color>; 4],
             filled: [bool; 4],
             seen: [u32; 4],
             m: usize,
             li: &mut [Color],
         ) {
-            add::<PER>(batches, f, filled, seen, m, li);
+            add::<PER>(batches, f, same, filled, seen, m, li);
         }
         // SAFETY: the CPU has AVX2, which is all `avx2` is compiled for.
-        unsafe { avx2::<PER>(batches, f, filled, seen, m, li) };
+        unsafe { avx2::<PER>(batches, f, same, filled, seen, m, li) };
         return;
     }
-    add::<PER>(batches, f, filled, seen, m, li);
+    add::<PER>(batches, f, same, filled, seen, m, li);
 }
 
 /// The kinds of the lanes' materials, as masks of lanes.

@@ -263,6 +263,22 @@ impl QuadBatch {
         // PERF: tp6-glass-quad Whitted 0.942 -> 0.864 s with the select, conference
         // 1.316 -> 1.232; the terms as SIMD loops then took the conference to 1.46 from
         // 1.55 (7 runs; tp6-glass-quad within noise).
+        self.add_seen_by(|c, j| f[c][j], seen, count, sum);
+    }
+
+    /// [`Self::add_seen`] where the material's value is `f` in every direction
+    /// ([`Material::shade_any_direction`]): the same sum, without the sixteen lanes of
+    /// `f` that [`QuadBatch::shade_into`] would write.
+    #[inline(always)]
+    pub(super) fn add_seen_same(&self, f: Color, seen: u32, count: usize, sum: &mut Color) {
+        let f = f.to_array();
+        self.add_seen_by(|c, _| f[c], seen, count, sum);
+    }
+
+    /// [`Self::add_seen`] with the material's value of channel `c` and sample `j` given by
+    /// `f(c, j)`.
+    #[inline(always)]
+    fn add_seen_by(&self, f: impl Fn(usize, usize) -> f32, seen: u32, count: usize, sum: &mut Color) {
         // PERF: eight lanes' terms when `count` is at most 8 (the conference room's eight
         // light samples), as `fill` computes them.
         if count <= BATCH / 2 {
@@ -272,15 +288,15 @@ impl QuadBatch {
         }
     }
 
-    /// [`Self::add_seen`] from the terms of the first `W` lanes (`count` at most `W`).
+    /// [`Self::add_seen_by`] from the terms of the first `W` lanes (`count` at most `W`).
     #[inline(always)]
     #[allow(clippy::needless_range_loop)] // `j` indexes five arrays and the mask
-    fn add_seen_lanes<const W: usize>(&self, f: &[[f32; BATCH]; 3], seen: u32, count: usize, sum: &mut Color) {
+    fn add_seen_lanes<const W: usize>(&self, f: impl Fn(usize, usize) -> f32, seen: u32, count: usize, sum: &mut Color) {
         debug_assert!(count <= W);
         let mut term = [[0f32; W]; 3];
         for c in 0..3 {
             for j in 0..W {
-                let t = f[c][j] * self.radiance[c][j] * self.cos[j];
+                let t = f(c, j) * self.radiance[c][j] * self.cos[j];
                 term[c][j] = if (seen >> j) & 1 != 0 { t } else { 0.0 };
             }
         }
