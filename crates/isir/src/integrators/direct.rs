@@ -1,7 +1,7 @@
 //! The course's direct lighting: for each light, the average over its samples of
 //! `shade · radiance · cos`, a sample counting only when its shadow ray reaches the light.
 
-use super::shadow::{live_mask, QuadScratch, BATCH, BATCH_FROM};
+use super::shadow::{divided, live_mask, QuadScratch, BATCH, BATCH_FROM};
 use super::RayCounters;
 use crate::geometry::Hit;
 use crate::lights::LightSampler;
@@ -158,6 +158,8 @@ fn quad_batches(
 ) -> Color {
     let mut sum = Color::ZERO;
     let mut xi = [Vec2::ZERO; BATCH];
+    // A material of one value in every direction needs no lanes of values.
+    let same = material.shade_any_direction(hit);
     for first in (0..n).step_by(BATCH) {
         let count = (n - first).min(BATCH as u32) as usize;
         sampler.fill_2d(&mut xi[..count]);
@@ -168,11 +170,17 @@ fn quad_batches(
         counters.shadow += u64::from(live.count_ones());
         // All the hit's shadow rays at once (`Scene::occluded_lanes` decides how).
         let blocked = scene.occluded_lanes(&batch.rays, live);
-        // `material.shade(ray, hit, &batch.sample(j))` of every sample, computed together.
-        batch.shade_into(material, ray, hit, f);
-        batch.add_seen(f, live & !blocked, count, &mut sum);
+        match same {
+            Some(c) => batch.add_seen_same(c, live & !blocked, count, &mut sum),
+            None => {
+                // `material.shade(ray, hit, &batch.sample(j))` of every sample, computed
+                // together.
+                batch.shade_into(material, ray, hit, f);
+                batch.add_seen(f, live & !blocked, count, &mut sum);
+            }
+        }
     }
-    sum / n as f32
+    divided(sum, n as usize)
 }
 
 #[cfg(test)]

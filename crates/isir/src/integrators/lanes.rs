@@ -14,7 +14,7 @@
 
 use super::direct::quad_light;
 use super::path::{defers_shadow, light_samplers, DeferredShadow, Path};
-use super::shadow::{live_mask, LambertLanes, LightLanes, QuadBatch, QuadScratch, BATCH, BATCH_FROM};
+use super::shadow::{divided, live_mask, LambertLanes, LightLanes, QuadBatch, QuadScratch, BATCH, BATCH_FROM};
 use super::{whitted, Integrator, RayCounters};
 use crate::geometry::{Hit, HitRows};
 use crate::lights::{Light, LightSampler};
@@ -515,18 +515,6 @@ fn add_groups_seen<const PER: usize>(
     add::<PER>(batches, f, same, filled, seen, m, li);
 }
 
-/// `sum / m`, the same floats: by a power of two as the product with its inverse, which
-/// is exact, so that both round the same real number (subnormals, zeros, infinities and
-/// NaNs included), without the division's latency at the end of each hit's sum.
-#[inline(always)]
-fn divided(sum: Color, m: usize) -> Color {
-    if m.is_power_of_two() {
-        sum * (1.0 / m as f32)
-    } else {
-        sum / m as f32
-    }
-}
-
 /// The kinds of the lanes' materials, as masks of lanes.
 #[derive(Clone, Copy, PartialEq, Eq)]
 struct MaterialMasks {
@@ -652,32 +640,5 @@ fn quad_nee_lanes(
     }
     for k in lanes_of(nee) {
         paths[k].add_light_average(acc[k], n);
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// [`divided`] is the quotient bit for bit, for every count of light samples and
-    /// floats of every kind: normal, subnormal, huge, signed zeros, infinities, NaN.
-    #[test]
-    fn divided_is_the_quotient() {
-        let mut rng = Sampler::from_seed(3);
-        let special = [0.0, -0.0, 1e-45, -1e-45, 1.2e-38, 3.4e38, -3.4e38, f32::INFINITY, f32::NEG_INFINITY, f32::NAN, 1.0, 0.1];
-        let mut checked = 0;
-        for m in 1..=32usize {
-            for round in 0..3000 {
-                // Random bit patterns (every exponent, subnormals too), then the specials.
-                let x = special.get(round).copied().unwrap_or_else(|| f32::from_bits((rng.next_f32() * 4.294_967e9) as u32));
-                let sum = Color::new(x, -x, x * 0.5);
-                let (a, b) = (divided(sum, m).to_array(), (sum / m as f32).to_array());
-                for (a, b) in a.into_iter().zip(b) {
-                    assert!(a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()), "{x:e} / {m}: {a:e} against {b:e}");
-                }
-                checked += 1;
-            }
-        }
-        assert_eq!(checked, 32 * 3000);
     }
 }

@@ -109,15 +109,28 @@ impl QuadBatch {
     #[target_feature(enable = "avx2")]
     fn fill_avx2<const W: usize>(&mut self, light: &LightSampler, rays: &ShadowRays, normal: Vec3, xi: &[Vec2; BATCH]) {
         use std::arch::x86_64::{
-            _mm256_castpd_ps, _mm256_castps_pd, _mm256_loadu_ps, _mm256_permute4x64_pd, _mm256_shuffle_ps, _mm256_storeu_ps,
+            _mm256_add_ps, _mm256_castpd_ps, _mm256_castps_pd, _mm256_loadu_ps, _mm256_mul_ps, _mm256_permute4x64_pd, _mm256_set1_ps,
+            _mm256_shuffle_ps, _mm256_storeu_ps,
         };
-        // The samples' two numbers as two rows, eight lanes per pair of loads.
-        // PERF: left to the compiler, each axis of the light point reloaded the pairs at
-        // odd offsets, loads the random numbers' stores could not forward.
-        let (mut xa, mut xc) = ([0f32; BATCH], [0f32; BATCH]);
+        if W != BATCH / 2 {
+            // Sixteen lanes: the compiler's loops measured as fast (tp3-quad-soft).
+            self.fill_portable::<W>(light, rays, rays.both_origins_avx2(), normal, xi);
+            return;
+        }
+        let LightSampler::Quad { corner, u, v, .. } = *light else {
+            unreachable!("quad lights only");
+        };
+        let (c, uu, vv) = (corner.to_array(), u.to_array(), v.to_array());
+        // The light points, eight lanes per pair of loads of the samples' numbers:
+        // `corner + x·u + y·v` axis by axis, the operations of `LightSampler::sample` in
+        // its order (no FMA), so the same floats.
+        // PERF: left to the compiler, the numbers were reloaded at odd offsets for each
+        // axis (loads their stores could not forward) and the points computed four lanes
+        // at a time.
+        let mut point = [[0f32; BATCH]; 3];
         for h in 0..W / 8 {
             // SAFETY: sixteen floats (eight `Vec2`s, x then y) read from `xi[8h..8h + 8]`,
-            // eight written to each row at `8h`.
+            // eight written to each row of `point` at `8h`.
             unsafe {
                 let p = xi[8 * h..].as_ptr().cast::<f32>();
                 let (a, b) = (_mm256_loadu_ps(p), _mm256_loadu_ps(p.add(8)));
@@ -126,11 +139,16 @@ impl QuadBatch {
                     _mm256_castpd_ps(_mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_castps_pd(_mm256_shuffle_ps::<0b10_00_10_00>(a, b))));
                 let y =
                     _mm256_castpd_ps(_mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_castps_pd(_mm256_shuffle_ps::<0b11_01_11_01>(a, b))));
-                _mm256_storeu_ps(xa[8 * h..].as_mut_ptr(), x);
-                _mm256_storeu_ps(xc[8 * h..].as_mut_ptr(), y);
+                for k in 0..3 {
+                    let at = _mm256_add_ps(
+                        _mm256_add_ps(_mm256_set1_ps(c[k]), _mm256_mul_ps(x, _mm256_set1_ps(uu[k]))),
+                        _mm256_mul_ps(y, _mm256_set1_ps(vv[k])),
+                    );
+                    _mm256_storeu_ps(point[k][8 * h..].as_mut_ptr(), at);
+                }
             }
         }
-        self.fill_rows::<W>(light, rays, rays.both_origins_avx2(), normal, &xa, &xc);
+        self.fill_rows::<W>(light, rays, rays.both_origins_avx2(), normal, &point);
     }
 
     /// The first `W` lanes (`W` at most [`BATCH`]; the others are left as they are);
@@ -145,14 +163,21 @@ impl QuadBatch {
         normal: Vec3,
         xi: &[Vec2; BATCH],
     ) {
-        let (mut xa, mut xc) = ([0f32; BATCH], [0f32; BATCH]);
-        for j in 0..W {
-            (xa[j], xc[j]) = (xi[j].x, xi[j].y);
+        let LightSampler::Quad { corner, u, v, .. } = *light else {
+            unreachable!("quad lights only");
+        };
+        let (c, uu, vv) = (corner.to_array(), u.to_array(), v.to_array());
+        // The operations of `LightSampler::sample`, in its order.
+        let mut point = [[0f32; BATCH]; 3];
+        for k in 0..3 {
+            for j in 0..W {
+                point[k][j] = c[k] + xi[j].x * uu[k] + xi[j].y * vv[k];
+            }
         }
-        self.fill_rows::<W>(light, rays, origins, normal, &xa, &xc);
+        self.fill_rows::<W>(light, rays, origins, normal, &point);
     }
 
-    /// [`Self::fill_portable`] from the samples' numbers as rows (`xa[j]`, `xc[j]`: `xi[j]`).
+    /// [`Self::fill_portable`] from the light points `point` (`[axis][lane]`) of the samples.
     #[inline(always)]
     #[allow(clippy::needless_range_loop)] // one index into many arrays: the loops vectorise
     fn fill_rows<const W: usize>(
@@ -161,10 +186,9 @@ impl QuadBatch {
         rays: &ShadowRays,
         origins: [Vec3; 2],
         normal: Vec3,
-        xa: &[f32; BATCH],
-        xc: &[f32; BATCH],
+        point: &[[f32; BATCH]; 3],
     ) {
-        let LightSampler::Quad { corner, u, v, normal: ln, area, emitted, .. } = *light else {
+        let LightSampler::Quad { normal: ln, area, emitted, .. } = *light else {
             unreachable!("quad lights only");
         };
         let (x, ng) = rays.surface();
@@ -173,13 +197,12 @@ impl QuadBatch {
         // The operations of `LightSampler::sample`, `Vec3::dot`, `Vec3::length` and
         // `ShadowRays::to`, in their order, so every float is the same. Stage by stage
         // over the lanes, without branches, so that each loop vectorises.
-        let (c, uu, vv, xx, n, sn, g) =
-            (corner.to_array(), u.to_array(), v.to_array(), x.to_array(), ln.to_array(), normal.to_array(), ng.to_array());
+        let (xx, n, sn, g) = (x.to_array(), ln.to_array(), normal.to_array(), ng.to_array());
         let mut to = [[0f32; BATCH]; 3];
         for k in 0..3 {
             for j in 0..W {
-                b.point[k][j] = c[k] + xa[j] * uu[k] + xc[j] * vv[k];
-                to[k][j] = b.point[k][j] - xx[k];
+                b.point[k][j] = point[k][j];
+                to[k][j] = point[k][j] - xx[k];
             }
         }
         let mut lit = [false; BATCH];
@@ -204,7 +227,7 @@ impl QuadBatch {
             for j in 0..W {
                 b.radiance[k][j] = if lit[j] { e[k] / b.pdf[j] } else { 0.0 };
                 b.rays.o[k][j] = if side_back[j] { back[k] } else { front[k] };
-                to[k][j] = b.point[k][j] - b.rays.o[k][j];
+                to[k][j] = point[k][j] - b.rays.o[k][j];
             }
         }
         for j in 0..W {
@@ -327,6 +350,18 @@ fn lane_sample(
 ) -> LightSample {
     let at = |a: &[[f32; BATCH]; 3]| Vec3::new(a[0][j], a[1][j], a[2][j]);
     LightSample { direction: at(wi), distance: distance[j], point: at(point), radiance: at(radiance), pdf: pdf[j] }
+}
+
+/// `sum / m`, the same floats: by a power of two as the product with its inverse, which
+/// is exact, so that both round the same real number (subnormals, zeros, infinities and
+/// NaNs included), without the division's latency at the end of each hit's sum.
+#[inline(always)]
+pub(super) fn divided(sum: Color, m: usize) -> Color {
+    if m.is_power_of_two() {
+        sum * (1.0 / m as f32)
+    } else {
+        sum / m as f32
+    }
 }
 
 /// Hits with a Lambert lobe, in lanes, for [`LightLanes::lambert_values`]: shading
@@ -674,6 +709,28 @@ mod tests {
     use crate::lights::Light;
     use crate::math::ray::RaySegment;
     use crate::math::sampling::Sampler;
+
+    /// [`divided`] is the quotient bit for bit, for every count of light samples and
+    /// floats of every kind: normal, subnormal, huge, signed zeros, infinities, NaN.
+    #[test]
+    fn divided_is_the_quotient() {
+        let mut rng = Sampler::from_seed(3);
+        let special = [0.0, -0.0, 1e-45, -1e-45, 1.2e-38, 3.4e38, -3.4e38, f32::INFINITY, f32::NEG_INFINITY, f32::NAN, 1.0, 0.1];
+        let mut checked = 0;
+        for m in 1..=32usize {
+            for round in 0..3000 {
+                // Random bit patterns (every exponent, subnormals too), then the specials.
+                let x = special.get(round).copied().unwrap_or_else(|| f32::from_bits((rng.next_f32() * 4.294_967e9) as u32));
+                let sum = Color::new(x, -x, x * 0.5);
+                let (a, b) = (divided(sum, m).to_array(), (sum / m as f32).to_array());
+                for (a, b) in a.into_iter().zip(b) {
+                    assert!(a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()), "{x:e} / {m}: {a:e} against {b:e}");
+                }
+                checked += 1;
+            }
+        }
+        assert_eq!(checked, 32 * 3000);
+    }
 
     /// Every field equals the one-at-a-time computation, bit for bit, including samples
     /// behind the light, on the light's plane, and hits on either side of the surface.

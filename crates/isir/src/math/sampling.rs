@@ -89,7 +89,7 @@ impl Sampler {
     /// chains (`s ↦ MUL⁴·s + inc·SUM₄` on four scalar chains; on eight in one AVX-512
     /// register from four pairs on, where the CPU has AVX-512 DQ and VL), so several
     /// multiplies are in flight instead of one.
-    #[inline]
+    #[inline(always)]
     pub fn fill_2d(&mut self, out: &mut [glam::Vec2]) {
         #[cfg(target_arch = "x86_64")]
         if out.len() >= 4 && Self::has_avx512_fill() {
