@@ -456,63 +456,52 @@ fn quad_groups<const PER: usize>(
         }
         let blocked = if live == [0, 0] { [0, 0] } else { scene.occluded_pair_to_light(light, [&both[0], &both[1]], live) };
         let seen: [u32; 4] = std::array::from_fn(|i| (live[i / PER % 2] & !blocked[i / PER % 2]) >> ((i % PER) * span));
-        add_groups_seen::<PER>(&batches, &f, same, filled, seen, m, &mut li[first..]);
+        add_groups_seen::<PER>(&GroupSeen { batches: &batches, f: &f, same, filled, seen, m }, &mut li[first..]);
     }
 }
 
-/// Adds to `li[i]` each filled batch `i`'s average of its seen samples
-/// ([`QuadBatch::add_seen`] with the values `f[i]`, or [`QuadBatch::add_seen_same`] with
-/// `same[i]` where it is given, then divided by `m`): the end of [`quad_groups`]' group, its
-/// SIMD loops compiled for AVX2 where the CPU has it.
-/// PERF: compiled for SSE2 with the rest of `direct_lanes`, the sixteen lanes' terms and
-/// the sums were a third of that function's time (conference room).
-fn add_groups_seen<const PER: usize>(
-    batches: &[QuadBatch; 4],
-    f: &[[[f32; BATCH]; 3]; 4],
+/// What a group of [`quad_groups`] leaves to be summed once its rays are traced: its
+/// batches, their values `f` (or the one value `same` of a material that has one), which
+/// batches are filled, the samples each one's rays saw the light from, and the number
+/// `m` of samples a hit.
+struct GroupSeen<'a> {
+    batches: &'a [QuadBatch; 4],
+    f: &'a [[[f32; BATCH]; 3]; 4],
     same: [Option<Color>; 4],
     filled: [bool; 4],
     seen: [u32; 4],
     m: usize,
-    li: &mut [Color],
-) {
+}
+
+/// Adds to `li[i]` each filled batch `i`'s average of its seen samples
+/// ([`QuadBatch::add_seen`] with the values `f[i]`, or [`QuadBatch::add_seen_same`] with
+/// `same[i]` where it is given, then divided by `m`): the end of [`quad_groups`]' group,
+/// its SIMD loops compiled for AVX2 where the CPU has it.
+/// PERF: compiled for SSE2 with the rest of `direct_lanes`, the sixteen lanes' terms and
+/// the sums were a third of that function's time (conference room).
+fn add_groups_seen<const PER: usize>(g: &GroupSeen<'_>, li: &mut [Color]) {
     #[inline(always)]
-    fn add<const PER: usize>(
-        batches: &[QuadBatch; 4],
-        f: &[[[f32; BATCH]; 3]; 4],
-        same: [Option<Color>; 4],
-        filled: [bool; 4],
-        seen: [u32; 4],
-        m: usize,
-        li: &mut [Color],
-    ) {
-        for i in (0..2 * PER).filter(|&i| filled[i]) {
+    fn add<const PER: usize>(g: &GroupSeen<'_>, li: &mut [Color]) {
+        for i in (0..2 * PER).filter(|&i| g.filled[i]) {
             let mut sum = Color::ZERO;
-            match same[i] {
-                Some(c) => batches[i].add_seen_same(c, seen[i], m, &mut sum),
-                None => batches[i].add_seen(&f[i], seen[i], m, &mut sum),
+            match g.same[i] {
+                Some(c) => g.batches[i].add_seen_same(c, g.seen[i], g.m, &mut sum),
+                None => g.batches[i].add_seen(&g.f[i], g.seen[i], g.m, &mut sum),
             }
-            li[i] += divided(sum, m);
+            li[i] += divided(sum, g.m);
         }
     }
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         #[target_feature(enable = "avx2")]
-        fn avx2<const PER: usize>(
-            batches: &[QuadBatch; 4],
-            f: &[[[f32; BATCH]; 3]; 4],
-            same: [Option<Color>; 4],
-            filled: [bool; 4],
-            seen: [u32; 4],
-            m: usize,
-            li: &mut [Color],
-        ) {
-            add::<PER>(batches, f, same, filled, seen, m, li);
+        fn avx2<const PER: usize>(g: &GroupSeen<'_>, li: &mut [Color]) {
+            add::<PER>(g, li);
         }
         // SAFETY: the CPU has AVX2, which is all `avx2` is compiled for.
-        unsafe { avx2::<PER>(batches, f, same, filled, seen, m, li) };
+        unsafe { avx2::<PER>(g, li) };
         return;
     }
-    add::<PER>(batches, f, same, filled, seen, m, li);
+    add::<PER>(g, li);
 }
 
 /// The kinds of the lanes' materials, as masks of lanes.

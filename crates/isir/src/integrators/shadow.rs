@@ -117,10 +117,7 @@ impl QuadBatch {
             self.fill_portable::<W>(light, rays, rays.both_origins_avx2(), normal, xi);
             return;
         }
-        let LightSampler::Quad { corner, u, v, .. } = *light else {
-            unreachable!("quad lights only");
-        };
-        let (c, uu, vv) = (corner.to_array(), u.to_array(), v.to_array());
+        let [c, uu, vv] = corner_and_edges(light);
         // The light points, eight lanes per pair of loads of the samples' numbers:
         // `corner + x·u + y·v` axis by axis, the operations of `LightSampler::sample` in
         // its order (no FMA), so the same floats.
@@ -163,10 +160,7 @@ impl QuadBatch {
         normal: Vec3,
         xi: &[Vec2; BATCH],
     ) {
-        let LightSampler::Quad { corner, u, v, .. } = *light else {
-            unreachable!("quad lights only");
-        };
-        let (c, uu, vv) = (corner.to_array(), u.to_array(), v.to_array());
+        let [c, uu, vv] = corner_and_edges(light);
         // The operations of `LightSampler::sample`, in its order.
         let mut point = [[0f32; BATCH]; 3];
         for k in 0..3 {
@@ -335,6 +329,15 @@ impl QuadBatch {
     fn shadow_ray(&self, j: usize) -> (Ray, f32) {
         (self.rays.ray(j), self.rays.t_max[j])
     }
+}
+
+/// A quad light's corner and edges `u` and `v`, as arrays.
+#[inline(always)]
+fn corner_and_edges(light: &LightSampler) -> [[f32; 3]; 3] {
+    let LightSampler::Quad { corner, u, v, .. } = *light else {
+        unreachable!("quad lights only");
+    };
+    [corner.to_array(), u.to_array(), v.to_array()]
 }
 
 /// Lane `j` of a batch's samples (directions, distances, points, radiances, pdfs in
