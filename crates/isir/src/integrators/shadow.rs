@@ -918,6 +918,22 @@ mod tests {
                     lit += 1;
                 }
             }
+            // The sums of the seen samples, in sample order, for counts on both sides of
+            // eight (the two widths of `add_seen`): from the lanes of values, and from the
+            // one value where the material has it, the same bits.
+            let (count, seen) = (1 + round % BATCH, (rng.next_f32() * 65536.0) as u32);
+            let mut expected = Color::ZERO;
+            for j in (0..count).filter(|&j| seen >> j & 1 != 0) {
+                expected += Color::new(fast[0][j], fast[1][j], fast[2][j]) * batch.sample(j).radiance * batch.cos[j];
+            }
+            let mut by_lanes = Color::ZERO;
+            batch.add_seen(&fast, seen, count, &mut by_lanes);
+            assert_eq!(by_lanes.to_array().map(f32::to_bits), expected.to_array().map(f32::to_bits), "{material:?} {count}");
+            if let Some(c) = any {
+                let mut by_value = Color::ZERO;
+                batch.add_seen_same(c, seen, count, &mut by_value);
+                assert_eq!(by_value.to_array().map(f32::to_bits), expected.to_array().map(f32::to_bits), "{material:?} {count}");
+            }
         }
         assert!(lit > 10_000 && unlit > 5_000, "{lit} {unlit}");
     }
