@@ -412,54 +412,74 @@ fn quad_groups<const PER: usize>(
     let span = BATCH / PER;
     debug_assert!((PER == 1 || PER == 2) && m <= span);
     let n = samplers.len();
-    // Reused from group to group: `fill` rewrites the lanes used (eight or sixteen), the
-    // others stay zero.
-    let mut batches = [QuadBatch::EMPTY, QuadBatch::EMPTY, QuadBatch::EMPTY, QuadBatch::EMPTY];
-    let mut f = [[[0f32; BATCH]; 3]; 4];
-    // Reused too: a group traces only its live lanes, which it writes; the other lanes may
-    // hold an earlier group's rays. PERF: zeroed per group, the conference at 16 spp took
-    // 1.548 s instead of 1.540.
-    let mut both = [RayLanes::EMPTY, RayLanes::EMPTY];
-    for first in (0..n).step_by(2 * PER) {
-        // Lanes `first + i`: batch `i / PER`, its share `i % PER`.
-        let mut live = [0u32; 2];
-        let mut filled = [false; 4];
-        let mut same = [None; 4];
-        // The group's random numbers, then its batches, then the rest. PERF: 0.993 and
-        // 0.983 of the conference's CPU time (two runs of nine pairs).
-        let mut xi = [[Vec2::ZERO; BATCH]; 4];
-        for (i, k) in (first..(first + 2 * PER).min(n)).enumerate() {
-            if hits[k].is_some() {
-                samplers[k].fill_2d(&mut xi[i][..m]);
+    // The groups' memory, the thread's own from call to call (see `GroupScratch`).
+    // PERF: zeroed per call (7 KB), `memset` was 2% of the conference room's profile.
+    GROUP_SCRATCH.with_borrow_mut(|g| {
+        let GroupScratch { batches, f, both } = g;
+        for first in (0..n).step_by(2 * PER) {
+            // Lanes `first + i`: batch `i / PER`, its share `i % PER`.
+            let mut live = [0u32; 2];
+            let mut filled = [false; 4];
+            let mut same = [None; 4];
+            // The group's random numbers, then its batches, then the rest. PERF: 0.993 and
+            // 0.983 of the conference's CPU time (two runs of nine pairs).
+            let mut xi = [[Vec2::ZERO; BATCH]; 4];
+            for (i, k) in (first..(first + 2 * PER).min(n)).enumerate() {
+                if hits[k].is_some() {
+                    samplers[k].fill_2d(&mut xi[i][..m]);
+                }
             }
-        }
-        for (i, k) in (first..(first + 2 * PER).min(n)).enumerate() {
-            if let Some(hit) = &hits[k] {
-                batches[i].fill(light_sampler, &hit.shadow_rays(), hit.normal, &xi[i], m);
+            for (i, k) in (first..(first + 2 * PER).min(n)).enumerate() {
+                if let Some(hit) = &hits[k] {
+                    batches[i].fill(light_sampler, &hit.shadow_rays(), hit.normal, &xi[i], m);
+                }
             }
-        }
-        for (i, k) in (first..(first + 2 * PER).min(n)).enumerate() {
-            let Some(hit) = &hits[k] else { continue };
-            let batch = &mut batches[i];
-            let lane_live = live_mask(&batch.live, m);
-            counters.shadow += u64::from(lane_live.count_ones());
-            live[i / PER] |= lane_live << ((i % PER) * span);
-            // The whole share at once: lanes past `m` are not live, so never traced.
-            both[i / PER].copy_lanes((i % PER) * span, &batch.rays, span);
-            // A material of one value in every direction needs no lanes of values.
-            let material = scene.material(hit);
-            same[i] = material.shade_any_direction(hit);
-            if same[i].is_none() {
-                batch.shade_into(material, &rays.ray(k), hit, &mut f[i]);
+            for (i, k) in (first..(first + 2 * PER).min(n)).enumerate() {
+                let Some(hit) = &hits[k] else { continue };
+                let batch = &mut batches[i];
+                let lane_live = live_mask(&batch.live, m);
+                counters.shadow += u64::from(lane_live.count_ones());
+                live[i / PER] |= lane_live << ((i % PER) * span);
+                // The whole share at once: lanes past `m` are not live, so never traced.
+                both[i / PER].copy_lanes((i % PER) * span, &batch.rays, span);
+                // A material of one value in every direction needs no lanes of values.
+                let material = scene.material(hit);
+                same[i] = material.shade_any_direction(hit);
+                if same[i].is_none() {
+                    batch.shade_into(material, &rays.ray(k), hit, &mut f[i]);
+                }
+                filled[i] = true;
             }
-            filled[i] = true;
+            let blocked = if live == [0, 0] { [0, 0] } else { scene.occluded_pair_to_light(light, [&both[0], &both[1]], live) };
+            // Each batch's samples that reached the light (`% 2`: with one batch a hit, the
+            // third and fourth are never filled, and read nothing past the pair).
+            let seen: [u32; 4] = std::array::from_fn(|i| (live[i / PER % 2] & !blocked[i / PER % 2]) >> ((i % PER) * span));
+            add_groups_seen::<PER>(&GroupSeen { batches, f, same, filled, seen, m }, &mut li[first..]);
         }
-        let blocked = if live == [0, 0] { [0, 0] } else { scene.occluded_pair_to_light(light, [&both[0], &both[1]], live) };
-        // Each batch's samples that reached the light (`% 2`: with one batch a hit, the
-        // third and fourth are never filled, and read nothing past the pair).
-        let seen: [u32; 4] = std::array::from_fn(|i| (live[i / PER % 2] & !blocked[i / PER % 2]) >> ((i % PER) * span));
-        add_groups_seen::<PER>(&GroupSeen { batches: &batches, f: &f, same, filled, seen, m }, &mut li[first..]);
-    }
+    });
+}
+
+/// The memory of [`quad_groups`]' groups: four batches, their shading values and the
+/// pair of shadow-ray lanes they are traced as, kept per thread from call to call. Every
+/// lane a group reads it wrote first (`fill` writes each batch's first eight or sixteen
+/// lanes, `copy_lanes` as many of the pair's; only the live ones are traced, only the seen
+/// ones summed), or it holds zeros or an earlier call's values, which are only carried
+/// along under the masks, any of which will do; the rays' `t_min` are never written and
+/// stay zero.
+struct GroupScratch {
+    batches: [QuadBatch; 4],
+    f: [[[f32; BATCH]; 3]; 4],
+    both: [RayLanes; 2],
+}
+
+thread_local! {
+    static GROUP_SCRATCH: std::cell::RefCell<GroupScratch> = const {
+        std::cell::RefCell::new(GroupScratch {
+            batches: [QuadBatch::EMPTY, QuadBatch::EMPTY, QuadBatch::EMPTY, QuadBatch::EMPTY],
+            f: [[[0f32; BATCH]; 3]; 4],
+            both: [RayLanes::EMPTY, RayLanes::EMPTY],
+        })
+    };
 }
 
 /// What a group of [`quad_groups`] leaves to be summed once its rays are traced: its
