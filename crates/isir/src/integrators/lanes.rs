@@ -413,7 +413,8 @@ fn quad_groups<const PER: usize>(
     debug_assert!((PER == 1 || PER == 2) && m <= span);
     let n = samplers.len();
     // The groups' memory, the thread's own from call to call (see `GroupScratch`).
-    // PERF: zeroed per call (7 KB), `memset` was 2% of the conference room's profile.
+    // PERF: zeroed per call (7 KB), `memset` was 2% of the conference room's profile;
+    // kept, the conference took 0.950 and 0.960 of the CPU time (two runs of 11 pairs).
     GROUP_SCRATCH.with_borrow_mut(|g| {
         let GroupScratch { batches, f, both } = g;
         for first in (0..n).step_by(2 * PER) {
