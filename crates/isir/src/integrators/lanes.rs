@@ -425,17 +425,18 @@ fn quad_groups<const PER: usize>(
             // The group's random numbers, then its batches, then the rest. PERF: 0.993 and
             // 0.983 of the conference's CPU time (two runs of nine pairs).
             let mut xi = [[Vec2::ZERO; BATCH]; 4];
-            for (i, k) in (first..(first + 2 * PER).min(n)).enumerate() {
+            let group = first..(first + 2 * PER).min(n);
+            for (i, k) in group.clone().enumerate() {
                 if hits[k].is_some() {
                     samplers[k].fill_2d(&mut xi[i][..m]);
                 }
             }
-            for (i, k) in (first..(first + 2 * PER).min(n)).enumerate() {
+            for (i, k) in group.clone().enumerate() {
                 if let Some(hit) = &hits[k] {
                     batches[i].fill(light_sampler, &hit.shadow_rays(), hit.normal, &xi[i], m);
                 }
             }
-            for (i, k) in (first..(first + 2 * PER).min(n)).enumerate() {
+            for (i, k) in group.enumerate() {
                 let Some(hit) = &hits[k] else { continue };
                 let batch = &mut batches[i];
                 let lane_live = live_mask(&batch.live, m);

@@ -97,9 +97,9 @@ impl QuadBatch {
             return;
         }
         if count <= BATCH / 2 {
-            self.fill_portable::<{ BATCH / 2 }>(light, rays, rays.both_origins(), normal, xi);
+            self.fill_portable::<{ BATCH / 2 }>(light, rays, rays.both_origins(), normal, &light_points::<{ BATCH / 2 }>(light, xi));
         } else {
-            self.fill_portable::<BATCH>(light, rays, rays.both_origins(), normal, xi);
+            self.fill_portable::<BATCH>(light, rays, rays.both_origins(), normal, &light_points::<BATCH>(light, xi));
         }
     }
 
@@ -108,73 +108,18 @@ impl QuadBatch {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     fn fill_avx2<const W: usize>(&mut self, light: &LightSampler, rays: &ShadowRays, normal: Vec3, xi: &[Vec2; BATCH]) {
-        use std::arch::x86_64::{
-            _mm256_add_ps, _mm256_castpd_ps, _mm256_castps_pd, _mm256_loadu_ps, _mm256_mul_ps, _mm256_permute4x64_pd, _mm256_set1_ps,
-            _mm256_shuffle_ps, _mm256_storeu_ps,
-        };
-        if W != BATCH / 2 {
-            // Sixteen lanes: the compiler's loops measured as fast (tp3-quad-soft).
-            self.fill_portable::<W>(light, rays, rays.both_origins_avx2(), normal, xi);
-            return;
-        }
-        let [c, uu, vv] = corner_and_edges(light);
-        // The light points, eight lanes per pair of loads of the samples' numbers:
-        // `corner + x·u + y·v` axis by axis, the operations of `LightSampler::sample` in
-        // its order (no FMA), so the same floats.
-        // PERF: left to the compiler, the numbers were reloaded at odd offsets for each
-        // axis (loads their stores could not forward) and the points computed four lanes
-        // at a time.
-        let mut point = [[0f32; BATCH]; 3];
-        for h in 0..W / 8 {
-            // SAFETY: sixteen floats (eight `Vec2`s, x then y) read from `xi[8h..8h + 8]`,
-            // eight written to each row of `point` at `8h`.
-            unsafe {
-                let p = xi[8 * h..].as_ptr().cast::<f32>();
-                let (a, b) = (_mm256_loadu_ps(p), _mm256_loadu_ps(p.add(8)));
-                // [x0 x1 x4 x5 | x2 x3 x6 x7] -> x0..x7 (and the same for y).
-                let x =
-                    _mm256_castpd_ps(_mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_castps_pd(_mm256_shuffle_ps::<0b10_00_10_00>(a, b))));
-                let y =
-                    _mm256_castpd_ps(_mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_castps_pd(_mm256_shuffle_ps::<0b11_01_11_01>(a, b))));
-                for k in 0..3 {
-                    let at = _mm256_add_ps(
-                        _mm256_add_ps(_mm256_set1_ps(c[k]), _mm256_mul_ps(x, _mm256_set1_ps(uu[k]))),
-                        _mm256_mul_ps(y, _mm256_set1_ps(vv[k])),
-                    );
-                    _mm256_storeu_ps(point[k][8 * h..].as_mut_ptr(), at);
-                }
-            }
-        }
-        self.fill_rows::<W>(light, rays, rays.both_origins_avx2(), normal, &point);
+        // Eight lanes' points from AVX2's shuffles; sixteen from the compiler's loops, which
+        // measured as fast (tp3-quad-soft).
+        let point = if W == BATCH / 2 { light_points_avx2(light, xi) } else { light_points::<W>(light, xi) };
+        self.fill_portable::<W>(light, rays, rays.both_origins_avx2(), normal, &point);
     }
 
-    /// The first `W` lanes (`W` at most [`BATCH`]; the others are left as they are);
+    /// The first `W` lanes (`W` at most [`BATCH`]; the others are left as they are), from
+    /// the samples' points on the light, `point` (`[axis][lane]`, [`light_points`]);
     /// `origins` are `rays.both_origins()`.
     #[inline(always)]
     #[allow(clippy::needless_range_loop)] // one index into many arrays: the loops vectorise
     fn fill_portable<const W: usize>(
-        &mut self,
-        light: &LightSampler,
-        rays: &ShadowRays,
-        origins: [Vec3; 2],
-        normal: Vec3,
-        xi: &[Vec2; BATCH],
-    ) {
-        let [c, uu, vv] = corner_and_edges(light);
-        // The operations of `LightSampler::sample`, in its order.
-        let mut point = [[0f32; BATCH]; 3];
-        for k in 0..3 {
-            for j in 0..W {
-                point[k][j] = c[k] + xi[j].x * uu[k] + xi[j].y * vv[k];
-            }
-        }
-        self.fill_rows::<W>(light, rays, origins, normal, &point);
-    }
-
-    /// [`Self::fill_portable`] from the light points `point` (`[axis][lane]`) of the samples.
-    #[inline(always)]
-    #[allow(clippy::needless_range_loop)] // one index into many arrays: the loops vectorise
-    fn fill_rows<const W: usize>(
         &mut self,
         light: &LightSampler,
         rays: &ShadowRays,
@@ -338,6 +283,56 @@ fn corner_and_edges(light: &LightSampler) -> [[f32; 3]; 3] {
         unreachable!("quad lights only");
     };
     [corner.to_array(), u.to_array(), v.to_array()]
+}
+
+/// The points of the quad light `light` of the samples `xi[..W]`, `corner + x·u + y·v`
+/// axis by axis (`[axis][lane]`; the other lanes zero): the operations of
+/// `LightSampler::sample`, in its order.
+#[inline(always)]
+#[allow(clippy::needless_range_loop)] // one index into three arrays: the loops vectorise
+fn light_points<const W: usize>(light: &LightSampler, xi: &[Vec2; BATCH]) -> [[f32; BATCH]; 3] {
+    let [c, uu, vv] = corner_and_edges(light);
+    let mut point = [[0f32; BATCH]; 3];
+    for k in 0..3 {
+        for j in 0..W {
+            point[k][j] = c[k] + xi[j].x * uu[k] + xi[j].y * vv[k];
+        }
+    }
+    point
+}
+
+/// [`light_points`] of eight samples with AVX2: the samples' numbers split into two rows
+/// by two shuffles, then the same operations eight lanes at a time (no FMA), so the same
+/// floats.
+/// PERF: left to the compiler, the numbers were reloaded at odd offsets for each axis
+/// (loads their stores could not forward) and the points computed four lanes at a time.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+fn light_points_avx2(light: &LightSampler, xi: &[Vec2; BATCH]) -> [[f32; BATCH]; 3] {
+    use std::arch::x86_64::{
+        _mm256_add_ps, _mm256_castpd_ps, _mm256_castps_pd, _mm256_loadu_ps, _mm256_mul_ps, _mm256_permute4x64_pd, _mm256_set1_ps,
+        _mm256_shuffle_ps, _mm256_storeu_ps,
+    };
+    let [c, uu, vv] = corner_and_edges(light);
+    let mut point = [[0f32; BATCH]; 3];
+    // SAFETY: sixteen floats (eight `Vec2`s, x then y) read from `xi[..8]`, eight written
+    // to each row of `point`.
+    unsafe {
+        let p = xi.as_ptr().cast::<f32>();
+        let (a, b) = (_mm256_loadu_ps(p), _mm256_loadu_ps(p.add(8)));
+        // [x0 x1 x4 x5 | x2 x3 x6 x7] -> x0..x7 (and the same for y).
+        let x = _mm256_castpd_ps(_mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_castps_pd(_mm256_shuffle_ps::<0b10_00_10_00>(a, b))));
+        let y = _mm256_castpd_ps(_mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_castps_pd(_mm256_shuffle_ps::<0b11_01_11_01>(a, b))));
+        for k in 0..3 {
+            let at = _mm256_add_ps(
+                _mm256_add_ps(_mm256_set1_ps(c[k]), _mm256_mul_ps(x, _mm256_set1_ps(uu[k]))),
+                _mm256_mul_ps(y, _mm256_set1_ps(vv[k])),
+            );
+            _mm256_storeu_ps(point[k].as_mut_ptr(), at);
+        }
+    }
+    point
 }
 
 /// Lane `j` of a batch's samples (directions, distances, points, radiances, pdfs in
@@ -773,7 +768,7 @@ mod tests {
             let batch = QuadBatch::new(&ls, &rays, normal, &xi, BATCH);
             // Both code paths where this CPU has both.
             let mut portable = QuadBatch::EMPTY;
-            portable.fill_portable::<BATCH>(&ls, &rays, rays.both_origins(), normal, &xi);
+            portable.fill_portable::<BATCH>(&ls, &rays, rays.both_origins(), normal, &light_points::<BATCH>(&ls, &xi));
             // Eight lanes (eight samples or fewer): the first eight of sixteen, no more.
             let half = QuadBatch::new(&ls, &rays, normal, &xi, BATCH / 2);
             // Every array, bit for bit (the AVX2 build, its offset origins in intrinsics,
