@@ -200,8 +200,19 @@ fn parse_obj_by(
         return Err(Error::Input { path: path.to_path_buf(), message });
     }
     let text = decode_text(bytes).map_err(|m| mesh_error(None, m))?;
-    let scan = scan_obj(&text).map_err(|(line, m)| mesh_error(Some(line), m))?;
+    // PERF: the scan (one thread, line by line) beside the parallel reader, which reads
+    // the same text: the conference room's load ~5 ms shorter. The reader's answer is
+    // kept when the scan leaves the text as it is, which it does but for faces without
+    // elements (which the reader declines).
+    let read = |text: &str| match reader {
+        Reader::Parallel(None) => fast::read_geometry(text),
+        Reader::Parallel(Some(chunks)) => fast::read_geometry_in(text, chunks),
+        Reader::Tobj => None,
+    };
+    let (scan, geometry) = rayon::join(|| scan_obj(&text), || read(&text));
+    let scan = scan.map_err(|(line, m)| mesh_error(Some(line), m))?;
     let text = scan.neutralize(text);
+    let geometry = if scan.hides_nothing() { geometry } else { read(&text) };
 
     // tobj calls the loader once per `mtllib` line, in file order: `libraries[k]` is the
     // names the k-th one defined, `None` when it failed.
@@ -217,11 +228,6 @@ fn parse_obj_by(
     // The parallel reader's models, with the materials tobj loaded for its skeleton; tobj
     // reads the whole file where that reader declines or the skeleton fails (its
     // libraries' notes then forgotten, as tobj loads them again).
-    let geometry = match reader {
-        Reader::Parallel(None) => fast::read_geometry(&text),
-        Reader::Parallel(Some(chunks)) => fast::read_geometry_in(&text, chunks),
-        Reader::Tobj => None,
-    };
     let fast = geometry.and_then(|geometry| {
         let (skeleton, runs) = geometry.skeleton(&text);
         let (models, materials) = tobj::load_obj_buf(&mut skeleton.as_bytes(), &options, loader).ok()?;

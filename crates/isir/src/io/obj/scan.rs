@@ -188,6 +188,11 @@ pub(super) fn scan_obj(text: &str) -> std::result::Result<ObjScan, (usize, Strin
 }
 
 impl ObjScan {
+    /// Whether [`ObjScan::neutralize`] leaves the text as it is.
+    pub(super) fn hides_nothing(&self) -> bool {
+        self.hide.is_empty()
+    }
+
     /// `text` with the keywords of the lines tobj must not see turned into comments (same
     /// length, so offsets and line numbers hold); copied only when there are some.
     pub(super) fn neutralize<'a>(&self, text: Cow<'a, str>) -> Cow<'a, str> {

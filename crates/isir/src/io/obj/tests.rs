@@ -510,6 +510,10 @@ fn obj_line() -> impl Strategy<Value = String> {
             Just("".to_string()),
             Just("   ".to_string()),
             Just("vp 0.5".to_string()),
+            // Faces without elements, which the scan hides from tobj (and the reader
+            // then reads the text again).
+            Just("f".to_string()),
+            Just("f  ".to_string()),
         ],
     ]
 }
