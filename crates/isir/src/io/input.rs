@@ -10,6 +10,12 @@
 //!   file is decompressed (every member, as parallel gzip tools write them) and stops with
 //!   an error as soon as its decompressed size passes the same limit, so a small gzip bomb
 //!   cannot exhaust memory.
+//! - A BGZF file (the blocked gzip of `bgzip`, whose members each say their size in a
+//!   header field) is inflated on every thread, member by member, into one buffer sized
+//!   by the members' trailers (each at most 64 KiB, the format's bound, and their sum
+//!   within the limit); anything unexpected in it sends the whole file through the
+//!   one-thread reader, whose answer or error it then is. The built-in conference room
+//!   is shipped so (`tools/bgzf.py`).
 //! - The limit is 1 GiB by default ([`ReadLimits::DEFAULT_MAX_BYTES`]).
 //!   [`ReadLimits::from_env`] reads a different one from the `ISIR_MAX_INPUT_BYTES`
 //!   environment variable (bytes, or with a `K`, `M`, `G` or `T` suffix, powers of 1024),
@@ -158,8 +164,9 @@ pub fn read_file(path: &Path, limits: &ReadLimits) -> Result<Vec<u8>> {
     // `max_bytes + 1` bytes are read from it.
     let bounded = file.take(limits.max_bytes.saturating_add(1));
     if path.extension().is_some_and(|e| e == "gz") {
-        let decoder = flate2::read::MultiGzDecoder::new(std::io::BufReader::new(bounded));
-        read_bounded(path, decoder, inflated_guess(meta.len()), limits, "decompresses to")
+        // Within the limit: a compressed file larger than it was refused above.
+        let raw = read_bounded(path, bounded, meta.len(), limits, "holds")?;
+        gunzip(path, &raw, limits)
     } else {
         // The size the file system gives for a regular file is what the file holds (and
         // it is within the limit): a good first capacity.
@@ -172,7 +179,70 @@ pub fn read_file(path: &Path, limits: &ReadLimits) -> Result<Vec<u8>> {
 /// # Errors
 /// Not valid gzip, or more than the limit once decompressed.
 pub fn gunzip(name: &Path, raw: &[u8], limits: &ReadLimits) -> Result<Vec<u8>> {
+    if let Some(members) = bgzf_members(raw) {
+        let size: u64 = members.iter().map(|m| u64::from(m.size)).sum();
+        if size > limits.max_bytes {
+            return Err(limits.too_large(name, "decompresses to".to_string()));
+        }
+        if let Some(out) = inflate_members(raw, &members, size) {
+            return Ok(out);
+        }
+    }
     read_bounded(name, flate2::read::MultiGzDecoder::new(raw), inflated_guess(raw.len() as u64), limits, "decompresses to")
+}
+
+/// A BGZF member: its bytes in the file and the size its trailer gives.
+struct Member {
+    bytes: std::ops::Range<usize>,
+    size: u32,
+}
+
+/// The largest member BGZF allows, compressed or not.
+const BGZF_BLOCK: usize = 1 << 16;
+
+/// The members of `raw` when it is BGZF from end to end, as `bgzip` writes it: each a
+/// gzip member whose only extra field is `BC`, which gives its size; `None` otherwise,
+/// or for a single member (nothing to share out).
+fn bgzf_members(raw: &[u8]) -> Option<Vec<Member>> {
+    let mut members = Vec::new();
+    let mut at = 0;
+    while at < raw.len() {
+        let h = raw.get(at..at + 18)?;
+        // Magic, deflate, FEXTRA only; XLEN 6; subfield `BC` of 2 bytes: the size - 1.
+        if h[..4] != [0x1f, 0x8b, 8, 4] || h[10..16] != [6, 0, b'B', b'C', 2, 0] {
+            return None;
+        }
+        let len = usize::from(u16::from_le_bytes([h[16], h[17]])) + 1;
+        // The header, the trailer and at least an empty deflate block.
+        let member = raw.get(at..at + len).filter(|m| m.len() >= 18 + 2 + 8)?;
+        let size = u32::from_le_bytes(member[len - 4..].try_into().ok()?);
+        if size as usize > BGZF_BLOCK {
+            return None;
+        }
+        members.push(Member { bytes: at..at + len, size });
+        at += len;
+    }
+    (members.len() > 1).then_some(members)
+}
+
+/// The members inflated on every thread into one buffer of `size` bytes; `None` when one
+/// does not inflate to exactly its trailer's size with a good checksum.
+fn inflate_members(raw: &[u8], members: &[Member], size: u64) -> Option<Vec<u8>> {
+    use rayon::prelude::*;
+    let mut out = vec![0u8; usize::try_from(size).ok()?];
+    let mut rest = out.as_mut_slice();
+    let mut pieces = Vec::with_capacity(members.len());
+    for m in members {
+        let (piece, after) = rest.split_at_mut(m.size as usize);
+        pieces.push((piece, &raw[m.bytes.clone()]));
+        rest = after;
+    }
+    let whole = pieces.into_par_iter().all(|(piece, member)| {
+        let mut d = flate2::read::GzDecoder::new(member);
+        // Reading past the data checks the trailer (CRC-32 and size).
+        d.read_exact(piece).is_ok() && matches!(d.read(&mut [0u8; 1]), Ok(0))
+    });
+    whole.then_some(out)
 }
 
 /// A first capacity for what `compressed` bytes of gzip inflate to: four times as much
@@ -272,6 +342,96 @@ mod tests {
         // A damaged or cut stream is an error, not a silently shorter file.
         std::fs::write(&p, &two[..two.len() - 5]).unwrap();
         assert!(read_file(&p, &ReadLimits::default()).unwrap_err().to_string().contains("two.txt.gz"));
+    }
+
+    /// `data` as `bgzip` writes it: members of at most 65,280 bytes, each saying its
+    /// size, then the format's empty last member.
+    fn bgzf(data: &[u8]) -> Vec<u8> {
+        let mut out = Vec::new();
+        for block in data.chunks(0xff00).chain([&[][..]]) {
+            let mut e = flate2::write::DeflateEncoder::new(Vec::new(), flate2::Compression::default());
+            e.write_all(block).unwrap();
+            let deflated = e.finish().unwrap();
+            let len = u16::try_from(18 + deflated.len() + 8 - 1).unwrap();
+            out.extend([0x1f, 0x8b, 8, 4, 0, 0, 0, 0, 0, 0xff, 6, 0, b'B', b'C', 2, 0]);
+            out.extend(len.to_le_bytes());
+            out.extend(deflated);
+            let mut crc = flate2::Crc::new();
+            crc.update(block);
+            out.extend(crc.sum().to_le_bytes());
+            out.extend((block.len() as u32).to_le_bytes());
+        }
+        out
+    }
+
+    /// What the one-thread reader makes of `raw`.
+    fn serial(raw: &[u8], limits: &ReadLimits) -> std::result::Result<Vec<u8>, String> {
+        read_bounded(Path::new("m.gz"), flate2::read::MultiGzDecoder::new(raw), 0, limits, "decompresses to").map_err(|e| e.to_string())
+    }
+
+    #[test]
+    fn bgzf_members_inflate_on_every_thread_to_the_same_bytes() {
+        let data: Vec<u8> = (0..300_000u32).flat_map(|i| format!("v {i} {} 0\n", i % 7).into_bytes()).collect();
+        let raw = bgzf(&data);
+        let members = bgzf_members(&raw).expect("BGZF");
+        assert_eq!(members.len(), data.len().div_ceil(0xff00) + 1);
+        let limits = ReadLimits::default();
+        assert_eq!(inflate_members(&raw, &members, data.len() as u64).as_deref(), Some(&data[..]));
+        assert_eq!(gunzip(Path::new("m.gz"), &raw, &limits).unwrap(), data);
+        assert_eq!(serial(&raw, &limits).unwrap(), data);
+        // Through a file too.
+        let (_dir, p) = tmp("m.obj.gz");
+        std::fs::write(&p, &raw).unwrap();
+        assert_eq!(read_file(&p, &limits).unwrap(), data);
+        // Over the limit: refused from the trailers' sizes, before inflating.
+        let e = gunzip(Path::new("m.gz"), &raw, &ReadLimits::new(1 << 20)).unwrap_err().to_string();
+        assert!(e.starts_with("m.gz: decompresses to more than the input limit of 1 MiB"), "{e}");
+        // Plain gzip, one member or several, is not BGZF.
+        assert!(bgzf_members(&gz(&data)).is_none());
+        let mut two = gz(b"a\n");
+        two.extend(gz(b"b\n"));
+        assert!(bgzf_members(&two).is_none());
+    }
+
+    #[test]
+    fn damaged_bgzf_gets_the_one_thread_readers_answer() {
+        let data: Vec<u8> = (0..100_000u32).flat_map(|i| format!("f {i} {} {}\n", i + 1, i + 2).into_bytes()).collect();
+        let raw = bgzf(&data);
+        let limits = ReadLimits::default();
+        let second = bgzf_members(&raw).unwrap()[1].bytes.clone();
+        let mut cases = Vec::new();
+        // A byte of the second member's deflate data, its CRC, its size; the file cut
+        // inside its last member and inside a header.
+        for at in [second.start + 30, second.end - 6, second.end - 3] {
+            let mut bad = raw.clone();
+            bad[at] ^= 0x55;
+            cases.push(bad);
+        }
+        cases.push(raw[..raw.len() - 10].to_vec());
+        cases.push(raw[..second.start + 9].to_vec());
+        for bad in &cases {
+            let ours = gunzip(Path::new("m.gz"), bad, &limits).map_err(|e| e.to_string());
+            assert!(ours.is_err());
+            assert_eq!(ours, serial(bad, &limits));
+        }
+        // A wrong size field is nothing to gzip: the one-thread reader reads the file.
+        let mut odd = raw.clone();
+        odd[second.start + 16] = 0xff;
+        odd[second.start + 17] = 0xff;
+        assert_eq!(gunzip(Path::new("m.gz"), &odd, &limits).unwrap(), data);
+        // A member whose trailer claims more than BGZF allows is not read in parallel.
+        let mut big = raw.clone();
+        big[second.end - 2] = 2;
+        assert!(bgzf_members(&big).is_none());
+    }
+
+    #[test]
+    fn the_shipped_conference_room_is_bgzf() {
+        let raw = include_bytes!("../../data/conference/conference.obj.gz");
+        let members = bgzf_members(raw).expect("shipped as BGZF (tools/bgzf.py)");
+        assert!(members.len() > 100);
+        let limits = ReadLimits::default();
+        assert_eq!(gunzip(Path::new("conference.obj.gz"), raw, &limits).unwrap(), serial(raw, &limits).unwrap());
     }
 
     #[test]
