@@ -13,9 +13,10 @@
 //! - A BGZF file (the blocked gzip of `bgzip`, whose members each say their size in a
 //!   header field) is inflated on every thread, member by member, into one buffer sized
 //!   by the members' trailers (each at most 64 KiB, the format's bound, and their sum
-//!   within the limit); anything unexpected in it sends the whole file through the
-//!   one-thread reader, whose answer or error it then is. The built-in conference room
-//!   is shipped so (`tools/bgzf.py`).
+//!   within the limit; allocated zeroed, so only what really inflates takes memory);
+//!   anything unexpected in it (a damaged member, a size that does not match, a sum over
+//!   the limit) sends the whole file through the one-thread reader, whose answer or error
+//!   it then is. The built-in conference room is shipped so (`tools/bgzf.py`).
 //! - The limit is 1 GiB by default ([`ReadLimits::DEFAULT_MAX_BYTES`]).
 //!   [`ReadLimits::from_env`] reads a different one from the `ISIR_MAX_INPUT_BYTES`
 //!   environment variable (bytes, or with a `K`, `M`, `G` or `T` suffix, powers of 1024),
@@ -180,12 +181,13 @@ pub fn read_file(path: &Path, limits: &ReadLimits) -> Result<Vec<u8>> {
 /// Not valid gzip, or more than the limit once decompressed.
 pub fn gunzip(name: &Path, raw: &[u8], limits: &ReadLimits) -> Result<Vec<u8>> {
     if let Some(members) = bgzf_members(raw) {
+        // More than the limit by the trailers' word: the one-thread reader stops at the
+        // limit by what really inflates (or at the first damaged member).
         let size: u64 = members.iter().map(|m| u64::from(m.size)).sum();
-        if size > limits.max_bytes {
-            return Err(limits.too_large(name, "decompresses to".to_string()));
-        }
-        if let Some(out) = inflate_members(raw, &members, size) {
-            return Ok(out);
+        if size <= limits.max_bytes {
+            if let Some(out) = inflate_members(raw, &members, size) {
+                return Ok(out);
+            }
         }
     }
     read_bounded(name, flate2::read::MultiGzDecoder::new(raw), inflated_guess(raw.len() as u64), limits, "decompresses to")
@@ -226,7 +228,8 @@ fn bgzf_members(raw: &[u8]) -> Option<Vec<Member>> {
 }
 
 /// The members inflated on every thread into one buffer of `size` bytes; `None` when one
-/// does not inflate to exactly its trailer's size with a good checksum.
+/// does not inflate to exactly its trailer's size with a good checksum. The buffer is
+/// allocated zeroed, so its pages are only taken as data really inflates into them.
 fn inflate_members(raw: &[u8], members: &[Member], size: u64) -> Option<Vec<u8>> {
     use rayon::prelude::*;
     let mut out = vec![0u8; usize::try_from(size).ok()?];
@@ -383,7 +386,7 @@ mod tests {
         let (_dir, p) = tmp("m.obj.gz");
         std::fs::write(&p, &raw).unwrap();
         assert_eq!(read_file(&p, &limits).unwrap(), data);
-        // Over the limit: refused from the trailers' sizes, before inflating.
+        // Over the limit: the one-thread reader's error (it stops at the limit).
         let e = gunzip(Path::new("m.gz"), &raw, &ReadLimits::new(1 << 20)).unwrap_err().to_string();
         assert!(e.starts_with("m.gz: decompresses to more than the input limit of 1 MiB"), "{e}");
         // Plain gzip, one member or several, is not BGZF.
