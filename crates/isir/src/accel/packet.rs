@@ -549,10 +549,10 @@ fn lane_rows(rays: &RayLanes, t_max: &[f32; LANES], mask: u32, a: &mut Rows) -> 
     rows_of(lanes.map(|k| (k, RaySegment { t_max: t_max[k], ..rays.segment(k) })), a)
 }
 
-/// [`lane_rows`] sixteen lanes at a time, the same floats and answers (each inverse one
-/// IEEE division, as `slab_inverse`'s), where the CPU has AVX-512. The rows of lanes not
-/// in `mask` or of invalid rays are zero (`lane_rows` leaves them as they were: zero in
-/// every caller's rows).
+/// `lane_rows` (the tests' reference) sixteen lanes at a time, the same floats and
+/// answers (each inverse one IEEE division, as `slab_inverse`'s), where the CPU has
+/// AVX-512. The rows of lanes not in `mask` or of invalid rays are zero (`lane_rows`
+/// leaves them as they were: zero in every caller's rows).
 /// PERF: ray by ray, the 48 scalar divisions and the 176 single-float stores (read back
 /// as 512-bit rows right after) were about a sixth of the renderer's packets' time.
 /// Compiled for AVX-512 (F, VL, DQ, BW): called from code compiled so.
