@@ -29,19 +29,68 @@ pub(super) struct RayPre {
 impl RayPre {
     #[inline(always)]
     pub(super) fn new(ray: &Ray) -> Self {
-        let (inv, neg) = slab_inverse(ray.direction);
-        let near_far = std::array::from_fn(|axis| {
-            const PLANE: usize = std::mem::size_of::<[f32; 8]>();
-            let (lo, hi) = (std::mem::offset_of!(Node8, lo) + PLANE * axis, std::mem::offset_of!(Node8, hi) + PLANE * axis);
-            if neg[axis] {
-                (hi, lo)
-            } else {
-                (lo, hi)
-            }
-        });
-        let org_inv = ray.origin * inv;
-        let slack = org_inv.abs() * FMA_SLACK;
-        Self { origin: ray.origin, dir: ray.direction, inv, org_inv_near: org_inv + slack, org_inv_far: org_inv - slack, neg, near_far }
+        let (inv, neg, org_inv_near, org_inv_far) = slabs_of(ray);
+        let near_far = std::array::from_fn(|axis| plane_offsets(axis, neg[axis]));
+        Self { origin: ray.origin, dir: ray.direction, inv, org_inv_near, org_inv_far, neg, near_far }
+    }
+}
+
+/// A ray's inverse direction and octant ([`slab_inverse`]) and its `origin · inv` moved
+/// up and down by its rounding (see [`RayPre`]).
+#[inline(always)]
+pub(super) fn slabs_of(ray: &Ray) -> (Vec3, [bool; 3], Vec3, Vec3) {
+    let (inv, neg) = slab_inverse(ray.direction);
+    let org_inv = ray.origin * inv;
+    let slack = org_inv.abs() * FMA_SLACK;
+    (inv, neg, org_inv + slack, org_inv - slack)
+}
+
+/// What the stream kernels read of a ray's set-up: a [`RayPre`], or a ray of a stream's
+/// rows (`stream::RowRay`), which hold the same values.
+pub(super) trait RayView {
+    /// The ray's origin.
+    fn origin(&self) -> Vec3;
+    /// The ray's direction.
+    fn dir(&self) -> Vec3;
+    /// Along `axis`: the inverse direction, and `origin · inv` moved up and down (see
+    /// [`RayPre`]).
+    fn slab(&self, axis: usize) -> (f32, f32, f32);
+    /// Along `axis`: the byte offsets in a [`Node8`] of the near and the far plane.
+    fn near_far(&self, axis: usize) -> (usize, usize);
+}
+
+impl RayView for RayPre {
+    #[inline(always)]
+    fn origin(&self) -> Vec3 {
+        self.origin
+    }
+
+    #[inline(always)]
+    fn dir(&self) -> Vec3 {
+        self.dir
+    }
+
+    #[inline(always)]
+    fn slab(&self, axis: usize) -> (f32, f32, f32) {
+        (self.inv[axis], self.org_inv_near[axis], self.org_inv_far[axis])
+    }
+
+    #[inline(always)]
+    fn near_far(&self, axis: usize) -> (usize, usize) {
+        self.near_far[axis]
+    }
+}
+
+/// Along `axis`, the byte offsets in a [`Node8`] of the near and the far plane of a ray
+/// whose direction is negative (`neg`) or not along it (what [`RayPre::new`] keeps).
+#[inline(always)]
+pub(super) fn plane_offsets(axis: usize, neg: bool) -> (usize, usize) {
+    const PLANE: usize = std::mem::size_of::<[f32; 8]>();
+    let (lo, hi) = (std::mem::offset_of!(Node8, lo) + PLANE * axis, std::mem::offset_of!(Node8, hi) + PLANE * axis);
+    if neg {
+        (hi, lo)
+    } else {
+        (lo, hi)
     }
 }
 
@@ -139,7 +188,7 @@ pub(super) fn tri4_test<const SIMD: bool, const ANY: bool>(
     if let Some(w) = watertight {
         tri4_watertight(tri, w, t_min, t_max)
     } else if SIMD {
-        tri4_sse::<ANY>(tri, pre, t_min, t_max)
+        tri4_sse::<ANY, _>(tri, pre, t_min, t_max)
     } else {
         tri4_scalar(tri, ray, t_min, t_max)
     }
@@ -194,8 +243,8 @@ pub(super) unsafe fn box_lanes_avx2(
 /// As for [`box_test_avx2`].
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-unsafe fn octant_plane(node: &Node8, pre: &RayPre, axis: usize, far: bool) -> std::arch::x86_64::__m256 {
-    let (n, f) = pre.near_far[axis];
+unsafe fn octant_plane<P: RayView + ?Sized>(node: &Node8, pre: &P, axis: usize, far: bool) -> std::arch::x86_64::__m256 {
+    let (n, f) = pre.near_far(axis);
     let o = if far { f } else { n };
     debug_assert!(o.is_multiple_of(32) && o + 32 <= std::mem::offset_of!(Node8, child));
     // SAFETY: the caller guarantees AVX and `pre`: `near_far` holds offsets of planes
@@ -210,35 +259,23 @@ unsafe fn octant_plane(node: &Node8, pre: &RayPre, axis: usize, far: bool) -> st
 /// As for [`box_test_avx2`].
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-pub(super) unsafe fn node_planes_avx2(node: &Node8, pre: &RayPre) -> [std::arch::x86_64::__m256; 6] {
+pub(super) unsafe fn node_planes_avx2<P: RayView + ?Sized>(node: &Node8, pre: &P) -> [std::arch::x86_64::__m256; 6] {
     // SAFETY: as for `octant_plane`, which the caller guarantees.
     let plane = |axis: usize, far: bool| unsafe { octant_plane(node, pre, axis, far) };
     [plane(0, false), plane(0, true), plane(1, false), plane(1, true), plane(2, false), plane(2, true)]
 }
 
-/// Whether two rays read the same planes of every node (the same octant).
-pub(super) fn same_octant(a: &RayPre, b: &RayPre) -> bool {
-    a.neg == b.neg
-}
-
-/// Whether two rays leave from the same point, bit for bit (so they share an
-/// [`OriginPart`]).
-pub(super) fn same_origin(a: &RayPre, b: &RayPre) -> bool {
-    a.origin.to_array().map(f32::to_bits) == b.origin.to_array().map(f32::to_bits)
-}
-
-impl RayPre {
-    /// The origin, one coordinate per axis broadcast to eight lanes.
-    ///
-    /// # Safety
-    /// The CPU must have AVX.
-    #[cfg(target_arch = "x86_64")]
-    #[inline(always)]
-    pub(super) unsafe fn origin_avx(&self) -> [std::arch::x86_64::__m256; 3] {
-        use std::arch::x86_64::_mm256_set1_ps;
-        // SAFETY: the caller guarantees AVX.
-        unsafe { [_mm256_set1_ps(self.origin.x), _mm256_set1_ps(self.origin.y), _mm256_set1_ps(self.origin.z)] }
-    }
+/// A ray's origin, one coordinate per axis broadcast to eight lanes.
+///
+/// # Safety
+/// The CPU must have AVX.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+pub(super) unsafe fn origin_avx<P: RayView + ?Sized>(pre: &P) -> [std::arch::x86_64::__m256; 3] {
+    use std::arch::x86_64::_mm256_set1_ps;
+    let o = pre.origin();
+    // SAFETY: the caller guarantees AVX.
+    unsafe { [_mm256_set1_ps(o.x), _mm256_set1_ps(o.y), _mm256_set1_ps(o.z)] }
 }
 
 /// A stream ray's test of a node's eight boxes, planes already loaded by
@@ -248,9 +285,9 @@ impl RayPre {
 /// The CPU must have AVX2 and FMA.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-pub(super) unsafe fn box_planes_stream_avx2(
+pub(super) unsafe fn box_planes_stream_avx2<P: RayView + ?Sized>(
     planes: &[std::arch::x86_64::__m256; 6],
-    pre: &RayPre,
+    pre: &P,
     t_min: f32,
     t_max: f32,
     bit: std::arch::x86_64::__m256i,
@@ -265,9 +302,9 @@ pub(super) unsafe fn box_planes_stream_avx2(
 /// As for [`box_test_avx2`].
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-pub(super) unsafe fn box_lanes_stream_avx2(
+pub(super) unsafe fn box_lanes_stream_avx2<P: RayView + ?Sized>(
     node: &Node8,
-    pre: &RayPre,
+    pre: &P,
     t_min: f32,
     t_max: f32,
     bit: std::arch::x86_64::__m256i,
@@ -287,9 +324,9 @@ pub(super) unsafe fn box_lanes_stream_avx2(
 /// The CPU must have AVX2 and FMA.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-unsafe fn box_stream_avx2(
+unsafe fn box_stream_avx2<P: RayView + ?Sized>(
     plane: impl Fn(usize, bool) -> std::arch::x86_64::__m256,
-    pre: &RayPre,
+    pre: &P,
     t_min: f32,
     t_max: f32,
     bit: std::arch::x86_64::__m256i,
@@ -318,9 +355,9 @@ unsafe fn box_stream_avx2(
 /// The CPU must have AVX2 and FMA.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-unsafe fn slabs_avx2(
+unsafe fn slabs_avx2<P: RayView + ?Sized>(
     plane: impl Fn(usize, bool) -> std::arch::x86_64::__m256,
-    pre: &RayPre,
+    pre: &P,
     t_min: f32,
     t_max: f32,
 ) -> (std::arch::x86_64::__m256, std::arch::x86_64::__m256) {
@@ -330,8 +367,8 @@ unsafe fn slabs_avx2(
         let mut near = _mm256_set1_ps(t_min);
         let mut far = _mm256_set1_ps(t_max);
         for axis in 0..3 {
-            let inv = _mm256_set1_ps(pre.inv[axis]);
-            let (oin, oif) = (_mm256_set1_ps(pre.org_inv_near[axis]), _mm256_set1_ps(pre.org_inv_far[axis]));
+            let (inv, oin, oif) = pre.slab(axis);
+            let (inv, oin, oif) = (_mm256_set1_ps(inv), _mm256_set1_ps(oin), _mm256_set1_ps(oif));
             let tn = _mm256_fmsub_ps(plane(axis, false), inv, oin);
             let tf = _mm256_fmsub_ps(plane(axis, true), inv, oif);
             near = _mm256_max_ps(near, tn);
@@ -425,8 +462,8 @@ pub(super) unsafe fn box_test_avx2(node: &Node8, pre: &RayPre, t_min: f32, t_max
 /// [`moller_trumbore_edges`].
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-pub(super) fn tri4_sse<const ANY: bool>(tri: &Tri4, pre: &RayPre, t_min: f32, t_max: f32) -> Option<MeshHit> {
-    tri4_sse_from::<ANY>(tri, pre.origin, pre.dir, t_min, t_max)
+pub(super) fn tri4_sse<const ANY: bool, P: RayView + ?Sized>(tri: &Tri4, pre: &P, t_min: f32, t_max: f32) -> Option<MeshHit> {
+    tri4_sse_from::<ANY>(tri, pre.origin(), pre.dir(), t_min, t_max)
 }
 
 /// [`tri4_sse`] of the ray from `origin` in direction `dir` (what it reads of a [`RayPre`]).
@@ -512,16 +549,17 @@ pub(super) fn pick_lane<const ANY: bool>(mut mask: u32, ts: &[f32]) -> usize {
 /// The CPU must have AVX.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-pub(super) unsafe fn tri4x2_avx2(
+pub(super) unsafe fn tri4x2_avx2<P: RayView + ?Sized>(
     tri: &Tri4,
-    a: &RayPre,
-    b: &RayPre,
+    a: &P,
+    b: &P,
     t_min: [f32; 2],
     t_max: [f32; 2],
 ) -> (u32, [std::arch::x86_64::__m256; 3]) {
     // SAFETY: the caller guarantees AVX.
     unsafe {
-        let part = origin_part_avx2(tri, [two(a.origin.x, b.origin.x), two(a.origin.y, b.origin.y), two(a.origin.z, b.origin.z)]);
+        let (ao, bo) = (a.origin(), b.origin());
+        let part = origin_part_avx2(tri, [two(ao.x, bo.x), two(ao.y, bo.y), two(ao.z, bo.z)]);
         tri4x2_from_avx2(tri, &part, a, b, t_min, t_max)
     }
 }
@@ -613,18 +651,19 @@ pub(crate) unsafe fn origin_part_avx2(tri: &Tri4, o: [std::arch::x86_64::__m256;
 /// The CPU must have AVX.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-pub(super) unsafe fn tri4x2_from_avx2(
+pub(super) unsafe fn tri4x2_from_avx2<P: RayView + ?Sized>(
     tri: &Tri4,
     part: &OriginPart,
-    a: &RayPre,
-    b: &RayPre,
+    a: &P,
+    b: &P,
     t_min: [f32; 2],
     t_max: [f32; 2],
 ) -> (u32, [std::arch::x86_64::__m256; 3]) {
     use std::arch::x86_64::*;
     // SAFETY: the caller guarantees AVX.
     unsafe {
-        let (dx, dy, dz) = (two(a.dir.x, b.dir.x), two(a.dir.y, b.dir.y), two(a.dir.z, b.dir.z));
+        let (ad, bd) = (a.dir(), b.dir());
+        let (dx, dy, dz) = (two(ad.x, bd.x), two(ad.y, bd.y), two(ad.z, bd.z));
         let (e1x, e1y, e1z) = (row(&tri.e1[0]), row(&tri.e1[1]), row(&tri.e1[2]));
         let (e2x, e2y, e2z) = (row(&tri.e2[0]), row(&tri.e2[1]), row(&tri.e2[2]));
         let mul = |x, y| _mm256_mul_ps(x, y);
@@ -657,6 +696,6 @@ pub(super) unsafe fn tri4x2_from_avx2(
 
 #[cfg(not(target_arch = "x86_64"))]
 #[inline(always)]
-pub(super) fn tri4_sse<const ANY: bool>(tri: &Tri4, pre: &RayPre, t_min: f32, t_max: f32) -> Option<MeshHit> {
-    tri4_scalar(tri, &Ray::new(pre.origin, pre.dir), t_min, t_max)
+pub(super) fn tri4_sse<const ANY: bool, P: RayView + ?Sized>(tri: &Tri4, pre: &P, t_min: f32, t_max: f32) -> Option<MeshHit> {
+    tri4_scalar(tri, &Ray::new(pre.origin(), pre.dir()), t_min, t_max)
 }
