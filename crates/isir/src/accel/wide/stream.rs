@@ -309,9 +309,33 @@ impl WideBvh {
         out: &mut [Option<MeshHit>],
         start: Option<&Node8>,
     ) -> u32 {
+        thread_local! {
+            static ROWS: std::cell::RefCell<Box<Rows>> = std::cell::RefCell::new(Box::new(Rows::ZERO));
+        }
+        ROWS.with(|rows| {
+            let mut rows = rows.borrow_mut();
+            rows.neg = [0; 3];
+            // SAFETY: the caller's guarantees.
+            unsafe { self.stream_in_avx2::<ANY, R>(rays, out, start, &mut rows) }
+        })
+    }
+
+    /// [`WideBvh::stream_avx2`] with its rows' memory, kept per thread (its columns of
+    /// rays not traced are never read; `neg` zero).
+    ///
+    /// # Safety
+    /// As for [`WideBvh::stream_avx2`].
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma,popcnt,bmi1,lzcnt")]
+    unsafe fn stream_in_avx2<const ANY: bool, R: StreamRays + ?Sized>(
+        &self,
+        rays: &R,
+        out: &mut [Option<MeshHit>],
+        start: Option<&Node8>,
+        rows: &mut Rows,
+    ) -> u32 {
         use std::arch::x86_64::*;
         debug_assert!(rays.count() <= STREAM && (ANY || out.len() >= rays.count()) && !self.watertight);
-        let mut rows = Rows::ZERO;
         let mut t_min = [0f32; STREAM];
         let mut t_best = [0f32; STREAM];
         let mut live: u32 = 0;
@@ -328,7 +352,7 @@ impl WideBvh {
             Some((batches, masks)) if ANY => {
                 if self.root != EMPTY {
                     // SAFETY: the CPU has AVX2 and FMA (this function's features).
-                    live = unsafe { lanes_rows_avx2(batches, masks, &mut rows, &mut t_min, &mut t_best) };
+                    live = unsafe { lanes_rows_avx2(batches, masks, rows, &mut t_min, &mut t_best) };
                     t_lim = t_best;
                 }
             }
