@@ -30,8 +30,15 @@ pub(super) fn li(
 }
 
 thread_local! {
-    /// [`direct_lighting`]'s quad-light batches, one per thread.
-    static QUAD_SCRATCH: std::cell::RefCell<Box<QuadScratch>> = std::cell::RefCell::new(Box::new(QuadScratch::EMPTY));
+    static QUAD_SCRATCH: std::cell::RefCell<QuadScratch> = const { std::cell::RefCell::new(QuadScratch::EMPTY) };
+}
+
+/// `f` with this thread's quad-light batches ([`quad_light`]'s memory), kept from call to
+/// call: lanes past a batch's count are never live nor summed (see `quad_batches`).
+/// PERF: zeroed per hit and light instead, `memset` was 2% of tp6-glass-quad, whose
+/// Whitted paths light every hit one at a time.
+pub(super) fn with_quad_scratch<R>(f: impl FnOnce(&mut QuadScratch) -> R) -> R {
+    QUAD_SCRATCH.with_borrow_mut(f)
 }
 
 /// Sum over the lights of the average over samples of `shade · radiance · cos`, counting a
@@ -51,11 +58,8 @@ pub(super) fn direct_lighting(
         let light_sampler = light.sampler();
         let n = if light.is_surface() { light_samples.max(1) } else { 1 };
         li += match light_sampler {
-            // PERF: the batches' memory kept per thread (lanes past a batch's count are never
-            // live nor summed: see `quad_batches`), not zeroed per hit and light: `memset`
-            // was 2% of tp6-glass-quad, whose Whitted paths light every hit one at a time.
-            LightSampler::Quad { .. } => QUAD_SCRATCH.with(|scratch| {
-                quad_light(scene, ray, hit, material, &light_sampler, &mut shadow_rays, n, sampler, counters, &mut scratch.borrow_mut())
+            LightSampler::Quad { .. } => with_quad_scratch(|scratch| {
+                quad_light(scene, ray, hit, material, &light_sampler, &mut shadow_rays, n, sampler, counters, scratch)
             }),
             _ => one_light(scene, ray, hit, material, &light_sampler, &mut shadow_rays, n, sampler, counters),
         };

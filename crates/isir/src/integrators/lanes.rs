@@ -12,9 +12,9 @@
 //! a branch, a square root to normalise, a store read back): samples side by side let the
 //! CPU overlap them, and spheres and planes are tested against all the lanes at once.
 
-use super::direct::quad_light;
+use super::direct::{quad_light, with_quad_scratch};
 use super::path::{defers_shadow, light_samplers, DeferredShadow, Path};
-use super::shadow::{divided, live_mask, LambertLanes, LightLanes, QuadBatch, QuadScratch, BATCH, BATCH_FROM};
+use super::shadow::{divided, live_mask, LambertLanes, LightLanes, QuadBatch, BATCH, BATCH_FROM};
 use super::{whitted, Integrator, RayCounters};
 use crate::geometry::{Hit, HitRows};
 use crate::lights::{Light, LightSampler};
@@ -299,15 +299,16 @@ fn direct_lanes(
             }
             // Each hit's shadow rays made where they are used. PERF: an array of the
             // sixteen hits' `ShadowRays` made first was 2% of tp6-matte-quad.
-            let mut scratch = QuadScratch::EMPTY;
-            for k in 0..n {
-                if let Some(hit) = &hits[k] {
-                    let material = scene.material(hit);
-                    let sampler = &mut samplers[k];
-                    let mut sr = hit.shadow_rays();
-                    li[k] += quad_light(scene, &rays.ray(k), hit, material, &light_sampler, &mut sr, m, sampler, counters, &mut scratch);
+            with_quad_scratch(|scratch| {
+                for k in 0..n {
+                    if let Some(hit) = &hits[k] {
+                        let material = scene.material(hit);
+                        let sampler = &mut samplers[k];
+                        let mut sr = hit.shadow_rays();
+                        li[k] += quad_light(scene, &rays.ray(k), hit, material, &light_sampler, &mut sr, m, sampler, counters, scratch);
+                    }
                 }
-            }
+            });
             continue;
         }
         // ---- A point light: one sample per lane, set up together, traced together ----

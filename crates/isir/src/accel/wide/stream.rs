@@ -312,13 +312,12 @@ impl WideBvh {
         start: Option<&Node8>,
     ) -> u32 {
         thread_local! {
-            static ROWS: std::cell::RefCell<Box<Rows>> = std::cell::RefCell::new(Box::new(Rows::ZERO));
+            static ROWS: std::cell::RefCell<Rows> = const { std::cell::RefCell::new(Rows::ZERO) };
         }
-        ROWS.with(|rows| {
-            let mut rows = rows.borrow_mut();
+        ROWS.with_borrow_mut(|rows| {
             rows.neg = [0; 3];
             // SAFETY: the caller's guarantees.
-            unsafe { self.stream_in_avx2::<ANY, R>(rays, out, start, &mut rows) }
+            unsafe { self.stream_in_avx2::<ANY, R>(rays, out, start, rows) }
         })
     }
 
@@ -416,8 +415,8 @@ impl WideBvh {
                 let bit = |i: usize| unsafe { _mm256_load_si256(RAY_BITS[i].0.as_ptr().cast()) };
                 if one_octant {
                     // The node's planes loaded once for all the rays.
-                    // SAFETY: AVX2 and FMA are enabled here; `pre(first)` comes from
-                    // `RayPre::new`, and every ray shares its octant.
+                    // SAFETY: AVX2 and FMA are enabled here; `pre(first)`'s plane offsets
+                    // come from `plane_offsets`, and every ray shares its octant.
                     let planes = unsafe { node_planes_avx2(node, &pre(first)) };
                     while m != 0 {
                         let i = m.trailing_zeros() as usize;
@@ -429,8 +428,8 @@ impl WideBvh {
                     while m != 0 {
                         let i = m.trailing_zeros() as usize;
                         m &= m - 1;
-                        // SAFETY: AVX2 and FMA are enabled here; `pre(i)` comes from
-                        // `RayPre::new`.
+                        // SAFETY: AVX2 and FMA are enabled here; `pre(i)`'s plane offsets
+                        // come from `plane_offsets`.
                         add(unsafe { box_lanes_stream_avx2(node, &pre(i), t_min[i], t_best[i], bit(i)) });
                     }
                 }
