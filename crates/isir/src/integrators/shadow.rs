@@ -161,10 +161,9 @@ impl QuadBatch {
                 b.wi[k][j] = wi[k];
             }
         }
-        let e = emitted.to_array();
+        radiances::<W>(&mut b.radiance, emitted.to_array(), &b.pdf, &lit);
         for k in 0..3 {
             for j in 0..W {
-                b.radiance[k][j] = if lit[j] { e[k] / b.pdf[j] } else { 0.0 };
                 b.rays.o[k][j] = if side_back[j] { back[k] } else { front[k] };
                 to[k][j] = point[k][j] - b.rays.o[k][j];
             }
@@ -333,6 +332,27 @@ fn light_points_avx2(light: &LightSampler, xi: &[Vec2; BATCH]) -> [[f32; BATCH];
         }
     }
     point
+}
+
+/// The first `W` lanes of a batch's radiances: `e[k] / q[j]` in channel `k` of lane `j`
+/// where `lit[j]`, else zero (`LightSampler::sample`'s quotients, as it computes them).
+/// PERF: a grey light (the course's lights are white) divides once per lane, not once per
+/// channel: 4 of `QuadBatch::fill`'s 24 divisions and square roots for sixteen lanes.
+#[inline(always)]
+#[allow(clippy::needless_range_loop)] // one index into several arrays: the loops vectorise
+fn radiances<const W: usize>(out: &mut [[f32; BATCH]; 3], e: [f32; 3], q: &[f32; BATCH], lit: &[bool; BATCH]) {
+    if e.map(f32::to_bits) == [e[0].to_bits(); 3] {
+        for j in 0..W {
+            let r = if lit[j] { e[0] / q[j] } else { 0.0 };
+            (out[0][j], out[1][j], out[2][j]) = (r, r, r);
+        }
+    } else {
+        for k in 0..3 {
+            for j in 0..W {
+                out[k][j] = if lit[j] { e[k] / q[j] } else { 0.0 };
+            }
+        }
+    }
 }
 
 /// Lane `j` of a batch's samples (directions, distances, points, radiances, pdfs in
@@ -513,19 +533,20 @@ impl LightLanes {
         match *light {
             LightSampler::Point { position, emitted } => {
                 let (y, em) = (position.to_array(), emitted.to_array());
+                let mut d2 = [0f32; BATCH];
                 for j in 0..BATCH {
                     let t = [y[0] - p[0][j], y[1] - p[1][j], y[2] - p[2][j]];
                     let d = (t[0] * t[0] + t[1] * t[1] + t[2] * t[2]).sqrt();
-                    let d2 = d * d;
+                    d2[j] = d * d;
                     for k in 0..3 {
                         to[k][j] = t[k];
                         b.point[k][j] = y[k];
                         b.wi[k][j] = t[k] / d;
-                        b.radiance[k][j] = em[k] / d2;
                     }
                     b.distance[j] = d;
                     b.pdf[j] = 1.0;
                 }
+                radiances::<BATCH>(&mut b.radiance, em, &d2, &[true; BATCH]);
             }
             LightSampler::Quad { corner, u, v, normal, area, emitted, .. } => {
                 let (c, uu, vv, n, em) = (corner.to_array(), u.to_array(), v.to_array(), normal.to_array(), emitted.to_array());
@@ -558,12 +579,11 @@ impl LightLanes {
                 // with the three channels in the lanes' loop, the select of each quotient
                 // still became masked stores (the path tracer on tp6-glass-quad 0.982).
                 // The back of the light (or NaN): nothing.
-                for k in 0..3 {
-                    for j in 0..BATCH {
-                        let q = em[k] / pdf_of[j];
-                        b.radiance[k][j] = if cl_of[j] > 0.0 { q } else { 0.0 };
-                    }
+                let mut lit = [false; BATCH];
+                for j in 0..BATCH {
+                    lit[j] = cl_of[j] > 0.0;
                 }
+                radiances::<BATCH>(&mut b.radiance, em, &pdf_of, &lit);
                 for j in 0..BATCH {
                     b.pdf[j] = if cl_of[j] > 0.0 { pdf_of[j] } else { 0.0 };
                 }
@@ -735,16 +755,18 @@ mod tests {
     #[test]
     fn batches_are_the_samples_and_shadow_rays_of_one_at_a_time() {
         let mut rng = Sampler::from_seed(5);
-        let light = Light::Quad {
+        // A coloured light, and a grey one (whose channels `fill` divides once).
+        let light = |color| Light::Quad {
             corner: Vec3::new(-1.0, 3.0, -1.0),
             u: Vec3::new(2.0, 0.0, 0.0),
             v: Vec3::new(0.0, 0.5, 2.0),
-            color: Vec3::new(1.0, 0.8, 0.6),
+            color,
             power: 12.0,
         };
-        let ls = light.sampler();
+        let lights = [light(Vec3::new(1.0, 0.8, 0.6)).sampler(), light(Vec3::splat(0.7)).sampler()];
         let (mut live, mut dead) = (0, 0);
         for round in 0..6000 {
+            let ls = &lights[round / 2 % 2];
             let mut r = || rng.next_f32() * 8.0 - 4.0;
             let mut p = Vec3::new(r(), r(), r());
             let mut ng = Vec3::new(r(), r(), r()).normalize();
@@ -765,12 +787,12 @@ mod tests {
                 (p, xi[3]) = (Vec3::new(-1.0, 3.0, -1.0), Vec2::ZERO);
             }
             let mut rays = ShadowRays::new(p, err, ng);
-            let batch = QuadBatch::new(&ls, &rays, normal, &xi, BATCH);
+            let batch = QuadBatch::new(ls, &rays, normal, &xi, BATCH);
             // Both code paths where this CPU has both.
             let mut portable = QuadBatch::EMPTY;
-            portable.fill_portable::<BATCH>(&ls, &rays, rays.both_origins(), normal, &light_points::<BATCH>(&ls, &xi));
+            portable.fill_portable::<BATCH>(ls, &rays, rays.both_origins(), normal, &light_points::<BATCH>(ls, &xi));
             // Eight lanes (eight samples or fewer): the first eight of sixteen, no more.
-            let half = QuadBatch::new(&ls, &rays, normal, &xi, BATCH / 2);
+            let half = QuadBatch::new(ls, &rays, normal, &xi, BATCH / 2);
             // Every array, bit for bit (the AVX2 build, its offset origins in intrinsics,
             // against the portable loops).
             let bits = |b: &QuadBatch| {
@@ -952,16 +974,12 @@ mod tests {
         for round in 0..6000 {
             let mut r = || rng.next_f32() * 8.0 - 4.0;
             let position = Vec3::new(r(), r(), r());
+            // Coloured lights and grey ones (whose channels are divided once).
+            let color = if round / 2 % 2 == 0 { Vec3::new(1.0, 0.5, 0.0) } else { Vec3::splat(0.8) };
             let light = if round % 2 == 0 {
-                Light::Point { position, color: Vec3::new(1.0, 0.5, 0.0), power: 10.0 }
+                Light::Point { position, color, power: 10.0 }
             } else {
-                Light::Quad {
-                    corner: position,
-                    u: Vec3::new(r(), 0.0, r()),
-                    v: Vec3::new(0.0, r(), r()),
-                    color: Vec3::new(1.0, 0.5, 0.0),
-                    power: 10.0,
-                }
+                Light::Quad { corner: position, u: Vec3::new(r(), 0.0, r()), v: Vec3::new(0.0, r(), r()), color, power: 10.0 }
             }
             .sampler();
             let xi: [Vec2; BATCH] = std::array::from_fn(|_| Vec2::new(r() / 8.0 + 0.5, r() / 8.0 + 0.5));
