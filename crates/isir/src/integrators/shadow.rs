@@ -84,34 +84,40 @@ impl QuadBatch {
     /// [`QuadBatch::new`] in place: the lanes it computes (eight when `count` is at most
     /// 8, else sixteen) are overwritten, the others left as they are.
     pub(super) fn fill(&mut self, light: &LightSampler, rays: &ShadowRays, normal: Vec3, xi: &[Vec2; BATCH], count: usize) {
+        // PERF: a grey light (the course's are white) divides its radiance once per lane,
+        // not once per channel: 4 of the 24 divisions and square roots of sixteen lanes.
+        // In code of its own: decided inside the loops, the eight-lane form took the
+        // conference room to 1.034 of its time, and LLVM made the sixteen-lane coloured
+        // one 48 scalar divisions (branches around them, not selects).
+        match (count <= BATCH / 2, grey(light)) {
+            (true, true) => self.fill_for::<{ BATCH / 2 }, true>(light, rays, normal, xi),
+            (true, false) => self.fill_for::<{ BATCH / 2 }, false>(light, rays, normal, xi),
+            (false, true) => self.fill_for::<BATCH, true>(light, rays, normal, xi),
+            (false, false) => self.fill_for::<BATCH, false>(light, rays, normal, xi),
+        }
+    }
+
+    /// [`Self::fill`] of `W` lanes (`BATCH / 2` or `BATCH`), `GREY` when the light is.
+    #[inline(always)]
+    fn fill_for<const W: usize, const GREY: bool>(&mut self, light: &LightSampler, rays: &ShadowRays, normal: Vec3, xi: &[Vec2; BATCH]) {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU has AVX2, which is all `fill_avx2` is compiled for.
-            unsafe {
-                if count <= BATCH / 2 {
-                    self.fill_avx2::<{ BATCH / 2 }>(light, rays, normal, xi);
-                } else {
-                    self.fill_avx2::<BATCH>(light, rays, normal, xi);
-                }
-            }
+            unsafe { self.fill_avx2::<W, GREY>(light, rays, normal, xi) };
             return;
         }
-        if count <= BATCH / 2 {
-            self.fill_portable::<{ BATCH / 2 }>(light, rays, rays.both_origins(), normal, &light_points::<{ BATCH / 2 }>(light, xi));
-        } else {
-            self.fill_portable::<BATCH>(light, rays, rays.both_origins(), normal, &light_points::<BATCH>(light, xi));
-        }
+        self.fill_portable::<W, GREY>(light, rays, rays.both_origins(), normal, &light_points::<W>(light, xi));
     }
 
     /// [`Self::fill`] compiled for AVX2: the same operations eight lanes wide (no FMA
     /// contraction, so the same floats).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn fill_avx2<const W: usize>(&mut self, light: &LightSampler, rays: &ShadowRays, normal: Vec3, xi: &[Vec2; BATCH]) {
+    fn fill_avx2<const W: usize, const GREY: bool>(&mut self, light: &LightSampler, rays: &ShadowRays, normal: Vec3, xi: &[Vec2; BATCH]) {
         // Eight lanes' points from AVX2's shuffles; sixteen from the compiler's loops, which
         // measured as fast (tp3-quad-soft).
         let point = if W == BATCH / 2 { light_points_avx2(light, xi) } else { light_points::<W>(light, xi) };
-        self.fill_portable::<W>(light, rays, rays.both_origins_avx2(), normal, &point);
+        self.fill_portable::<W, GREY>(light, rays, rays.both_origins_avx2(), normal, &point);
     }
 
     /// The first `W` lanes (`W` at most [`BATCH`]; the others are left as they are), from
@@ -119,7 +125,7 @@ impl QuadBatch {
     /// `origins` are `rays.both_origins()`.
     #[inline(always)]
     #[allow(clippy::needless_range_loop)] // one index into many arrays: the loops vectorise
-    fn fill_portable<const W: usize>(
+    fn fill_portable<const W: usize, const GREY: bool>(
         &mut self,
         light: &LightSampler,
         rays: &ShadowRays,
@@ -161,9 +167,19 @@ impl QuadBatch {
                 b.wi[k][j] = wi[k];
             }
         }
-        radiances::<W>(&mut b.radiance, emitted.to_array(), &b.pdf, &lit);
+        let e = emitted.to_array();
+        if GREY {
+            // The three channels' quotients are one (`grey`).
+            for j in 0..W {
+                let r = if lit[j] { e[0] / b.pdf[j] } else { 0.0 };
+                (b.radiance[0][j], b.radiance[1][j], b.radiance[2][j]) = (r, r, r);
+            }
+        }
         for k in 0..3 {
             for j in 0..W {
+                if !GREY {
+                    b.radiance[k][j] = if lit[j] { e[k] / b.pdf[j] } else { 0.0 };
+                }
                 b.rays.o[k][j] = if side_back[j] { back[k] } else { front[k] };
                 to[k][j] = point[k][j] - b.rays.o[k][j];
             }
@@ -334,25 +350,13 @@ fn light_points_avx2(light: &LightSampler, xi: &[Vec2; BATCH]) -> [[f32; BATCH];
     point
 }
 
-/// The first `W` lanes of a batch's radiances: `e[k] / q[j]` in channel `k` of lane `j`
-/// where `lit[j]`, else zero (`LightSampler::sample`'s quotients, as it computes them).
-/// PERF: a grey light (the course's lights are white) divides once per lane, not once per
-/// channel: 4 of `QuadBatch::fill`'s 24 divisions and square roots for sixteen lanes.
-#[inline(always)]
-#[allow(clippy::needless_range_loop)] // one index into several arrays: the loops vectorise
-fn radiances<const W: usize>(out: &mut [[f32; BATCH]; 3], e: [f32; 3], q: &[f32; BATCH], lit: &[bool; BATCH]) {
-    if e.map(f32::to_bits) == [e[0].to_bits(); 3] {
-        for j in 0..W {
-            let r = if lit[j] { e[0] / q[j] } else { 0.0 };
-            (out[0][j], out[1][j], out[2][j]) = (r, r, r);
-        }
-    } else {
-        for k in 0..3 {
-            for j in 0..W {
-                out[k][j] = if lit[j] { e[k] / q[j] } else { 0.0 };
-            }
-        }
-    }
+/// Whether the quad light's radiance is the same in its three channels, bit for bit (a
+/// grey light, as the course's white ones are), so that [`QuadBatch::fill`] divides it
+/// once per lane.
+fn grey(light: &LightSampler) -> bool {
+    let LightSampler::Quad { emitted, .. } = *light else { return false };
+    let e = emitted.to_array().map(f32::to_bits);
+    e == [e[0]; 3]
 }
 
 /// Lane `j` of a batch's samples (directions, distances, points, radiances, pdfs in
@@ -533,20 +537,19 @@ impl LightLanes {
         match *light {
             LightSampler::Point { position, emitted } => {
                 let (y, em) = (position.to_array(), emitted.to_array());
-                let mut d2 = [0f32; BATCH];
                 for j in 0..BATCH {
                     let t = [y[0] - p[0][j], y[1] - p[1][j], y[2] - p[2][j]];
                     let d = (t[0] * t[0] + t[1] * t[1] + t[2] * t[2]).sqrt();
-                    d2[j] = d * d;
+                    let d2 = d * d;
                     for k in 0..3 {
                         to[k][j] = t[k];
                         b.point[k][j] = y[k];
                         b.wi[k][j] = t[k] / d;
+                        b.radiance[k][j] = em[k] / d2;
                     }
                     b.distance[j] = d;
                     b.pdf[j] = 1.0;
                 }
-                radiances::<BATCH>(&mut b.radiance, em, &d2, &[true; BATCH]);
             }
             LightSampler::Quad { corner, u, v, normal, area, emitted, .. } => {
                 let (c, uu, vv, n, em) = (corner.to_array(), u.to_array(), v.to_array(), normal.to_array(), emitted.to_array());
@@ -579,11 +582,12 @@ impl LightLanes {
                 // with the three channels in the lanes' loop, the select of each quotient
                 // still became masked stores (the path tracer on tp6-glass-quad 0.982).
                 // The back of the light (or NaN): nothing.
-                let mut lit = [false; BATCH];
-                for j in 0..BATCH {
-                    lit[j] = cl_of[j] > 0.0;
+                for k in 0..3 {
+                    for j in 0..BATCH {
+                        let q = em[k] / pdf_of[j];
+                        b.radiance[k][j] = if cl_of[j] > 0.0 { q } else { 0.0 };
+                    }
                 }
-                radiances::<BATCH>(&mut b.radiance, em, &pdf_of, &lit);
                 for j in 0..BATCH {
                     b.pdf[j] = if cl_of[j] > 0.0 { pdf_of[j] } else { 0.0 };
                 }
@@ -790,7 +794,11 @@ mod tests {
             let batch = QuadBatch::new(ls, &rays, normal, &xi, BATCH);
             // Both code paths where this CPU has both.
             let mut portable = QuadBatch::EMPTY;
-            portable.fill_portable::<BATCH>(ls, &rays, rays.both_origins(), normal, &light_points::<BATCH>(ls, &xi));
+            if grey(ls) {
+                portable.fill_portable::<BATCH, true>(ls, &rays, rays.both_origins(), normal, &light_points::<BATCH>(ls, &xi));
+            } else {
+                portable.fill_portable::<BATCH, false>(ls, &rays, rays.both_origins(), normal, &light_points::<BATCH>(ls, &xi));
+            }
             // Eight lanes (eight samples or fewer): the first eight of sixteen, no more.
             let half = QuadBatch::new(ls, &rays, normal, &xi, BATCH / 2);
             // Every array, bit for bit (the AVX2 build, its offset origins in intrinsics,

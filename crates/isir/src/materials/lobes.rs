@@ -229,8 +229,9 @@ mod tests {
 
     /// `oren_nayar_lanes` gives `oren_nayar`'s bits lane by lane, unlit lanes `+0`, on
     /// directions chosen to meet its cases: `cos θi` below, equal to and above `cos θo`,
-    /// above 1, grazing, below the surface, and NaN.
+    /// above 1, below the surface, and NaN.
     #[test]
+    #[allow(clippy::needless_range_loop)] // one index into several arrays
     fn oren_nayar_lanes_are_oren_nayar() {
         const N: usize = 16;
         let mut rng = Sampler::from_seed(5);
