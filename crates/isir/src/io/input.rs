@@ -233,15 +233,9 @@ fn bgzf_members(raw: &[u8]) -> Option<Vec<Member>> {
 fn inflate_members(raw: &[u8], members: &[Member], size: u64) -> Option<Vec<u8>> {
     use rayon::prelude::*;
     let mut out = vec![0u8; usize::try_from(size).ok()?];
-    let mut rest = out.as_mut_slice();
-    let mut pieces = Vec::with_capacity(members.len());
-    for m in members {
-        let (piece, after) = rest.split_at_mut(m.size as usize);
-        pieces.push((piece, &raw[m.bytes.clone()]));
-        rest = after;
-    }
-    let whole = pieces.into_par_iter().all(|(piece, member)| {
-        let mut d = flate2::read::GzDecoder::new(member);
+    let pieces = super::pieces_mut(&mut out, members.iter().map(|m| m.size as usize));
+    let whole = pieces.into_par_iter().zip(members).all(|(piece, m)| {
+        let mut d = flate2::read::GzDecoder::new(&raw[m.bytes.clone()]);
         // Reading past the data checks the trailer (CRC-32 and size).
         d.read_exact(piece).is_ok() && matches!(d.read(&mut [0u8; 1]), Ok(0))
     });

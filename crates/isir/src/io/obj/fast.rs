@@ -113,14 +113,8 @@ pub(super) fn read_geometry_in(text: &str, chunks: usize) -> Option<Geometry> {
 /// The arrays `array` of `parts` one after the other, copied on every thread.
 fn joined<T: Copy + Default + Send + Sync>(parts: &[Geometry], array: impl Fn(&Geometry) -> &Vec<T> + Sync) -> Vec<T> {
     let mut all = vec![T::default(); parts.iter().map(|g| array(g).len()).sum()];
-    let mut rest = all.as_mut_slice();
-    let mut pieces = Vec::with_capacity(parts.len());
-    for g in parts {
-        let (piece, after) = rest.split_at_mut(array(g).len());
-        pieces.push((piece, g));
-        rest = after;
-    }
-    pieces.into_par_iter().for_each(|(piece, g)| piece.copy_from_slice(array(g)));
+    let pieces = crate::io::pieces_mut(&mut all, parts.iter().map(|g| array(g).len()));
+    pieces.into_par_iter().zip(parts).for_each(|(piece, g)| piece.copy_from_slice(array(g)));
     all
 }
 
