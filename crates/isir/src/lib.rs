@@ -31,6 +31,7 @@ pub mod scenes;
 pub mod geometry;
 // Below the seam, and the mathematics under everything.
 pub mod accel;
+mod kept;
 pub mod math;
 // Files in and out.
 pub mod error;

@@ -17,9 +17,11 @@ use super::path::{defers_shadow, light_samplers, DeferredShadow, Path};
 use super::shadow::{divided, live_mask, LambertLanes, LightLanes, QuadBatch, BATCH, BATCH_FROM};
 use super::{whitted, Integrator, RayCounters};
 use crate::geometry::{Hit, HitRows};
+use crate::kept::{Kept, Slot};
 use crate::lights::{Light, LightSampler};
 use crate::materials::Material;
 use crate::math::color::Color;
+
 use crate::math::ray::{lane_mask, lanes_of, spawn_lanes, RayLanes, LANES};
 use crate::math::sampling::{cosine_hemisphere_lanes, Sampler};
 use crate::scene::Scene;
@@ -317,7 +319,7 @@ fn direct_lanes(
             // needs none).
             samplers[k].skip::<2>();
         }
-        let mut batch = KeptLanes::take();
+        let mut batch = Kept::take(&LIGHT_LANES, || LightLanes::EMPTY);
         batch.fill(&light_sampler, hits, &[Vec2::ZERO; BATCH]);
         let live = live_mask(&batch.live, n);
         counters.shadow += u64::from(live.count_ones());
@@ -343,41 +345,13 @@ fn direct_lanes(
 }
 
 thread_local! {
-    static KEPT_LANES: std::cell::Cell<Option<Box<LightLanes>>> = const { std::cell::Cell::new(None) };
-}
-
-/// This thread's batch of light samples in lanes, taken for a while and given back when
-/// dropped: [`LightLanes::fill`] rewrites every lane it is read from (the rays' `t_min`
-/// are never written and stay the zeros of [`LightLanes::EMPTY`]), so no batch needs
-/// zeroing but the thread's first (or one taken while another is out).
-/// PERF: a zeroed batch per call, its `memset` was 2.3% of tp5-phong. Not a closure over
-/// the thread's batch: `Material::shade` was then no longer inlined into
-/// `direct_lanes`, and tp5-phong took 1.04 of its time.
-struct KeptLanes(Option<Box<LightLanes>>);
-
-impl KeptLanes {
-    fn take() -> KeptLanes {
-        KeptLanes(Some(KEPT_LANES.take().unwrap_or_else(|| Box::new(LightLanes::EMPTY))))
-    }
-}
-
-impl std::ops::Deref for KeptLanes {
-    type Target = LightLanes;
-    fn deref(&self) -> &LightLanes {
-        self.0.as_deref().expect("a kept batch until dropped")
-    }
-}
-
-impl std::ops::DerefMut for KeptLanes {
-    fn deref_mut(&mut self) -> &mut LightLanes {
-        self.0.as_deref_mut().expect("a kept batch until dropped")
-    }
-}
-
-impl Drop for KeptLanes {
-    fn drop(&mut self) {
-        KEPT_LANES.set(self.0.take());
-    }
+    /// This thread's batch of light samples in lanes for [`direct_lanes`]' point lights
+    /// and [`quad_few_lanes`]: [`LightLanes::fill`] rewrites every lane it is read from
+    /// (the rays' `t_min` are never written and stay the zeros of [`LightLanes::EMPTY`]).
+    /// PERF: a zeroed batch per call, its `memset` was 2.3% of tp5-phong. Held as a
+    /// [`Kept`] guard, not in a closure: `Material::shade` was then no longer inlined
+    /// into `direct_lanes`, and tp5-phong took 1.04 of its time.
+    static LIGHT_LANES: Slot<LightLanes> = const { std::cell::Cell::new(None) };
 }
 
 /// A quad light of fewer than [`BATCH_FROM`] samples (one to three) in every lane with a
@@ -400,7 +374,7 @@ fn quad_few_lanes(
 ) {
     let n = samplers.len();
     let mut sum = [Color::ZERO; LANES];
-    let mut batch = KeptLanes::take();
+    let mut batch = Kept::take(&LIGHT_LANES, || LightLanes::EMPTY);
     let with_hit = lane_mask(&std::array::from_fn(|k| hits[k].is_some()));
     for _ in 0..m {
         let mut u = [[0f32; LANES]; 2];
