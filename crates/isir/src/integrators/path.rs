@@ -12,6 +12,7 @@
 use super::shadow::{QuadBatch, BATCH, BATCH_FROM};
 use super::RayCounters;
 use crate::geometry::Hit;
+use crate::kept::{Kept, Slot};
 use crate::lights::{Light, LightHit, LightSample, LightSampler};
 use crate::materials::{BsdfSample, Material};
 use crate::math::color::Color;
@@ -324,6 +325,14 @@ impl Path {
     }
 }
 
+thread_local! {
+    /// This thread's batch of a vertex's quad-light samples (`Path::light_direct`), kept
+    /// from vertex to vertex: [`QuadBatch::fill`] rewrites the lanes that are read (those
+    /// below the count). PERF: made and zeroed per vertex, its `memset` was 1.6% of the
+    /// path tracer on tp6-glass-quad (its own materials, sixteen light samples).
+    static QUAD_BATCH: Slot<QuadBatch> = const { std::cell::Cell::new(None) };
+}
+
 /// The BRDF value of a light sample worth a shadow ray (some radiance, a valid pdf, a
 /// nonzero BRDF), `None` for one that is not.
 #[inline(always)]
@@ -384,10 +393,11 @@ fn next_event(
         if matches!(light_sampler, LightSampler::Quad { .. }) && n >= BATCH_FROM {
             // Sixteen samples set up at a time (`QuadBatch`), then used in order.
             let mut xi = [Vec2::ZERO; BATCH];
+            let mut batch = Kept::take(&QUAD_BATCH, || QuadBatch::EMPTY);
             for first in (0..n).step_by(BATCH) {
                 let count = (n - first).min(BATCH as u32) as usize;
                 sampler.fill_2d(&mut xi[..count]);
-                let batch = QuadBatch::new(light_sampler, &shadow_rays, hit.normal, &xi, count);
+                batch.fill(light_sampler, &shadow_rays, hit.normal, &xi, count);
                 // The samples `visit` would trace, their shadow rays traced as one packet,
                 // then summed in order as `visit` sums them.
                 let mut f = [Color::ZERO; BATCH];

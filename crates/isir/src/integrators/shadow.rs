@@ -55,13 +55,9 @@ impl QuadScratch {
 }
 
 impl QuadBatch {
-    /// Samples `xi[..n]` of the quad light `light` seen from the hit whose shading normal is
-    /// `normal` and whose shadow rays leave as `rays` says.
-    /// Only the first `count` lanes are meaningful (the others are computed from whatever
-    /// `xi` holds there, or left zero).
-    /// PERF: eight lanes computed when `count` is at most 8 (the conference room's eight
-    /// light samples): 5% of that render was this function computing all sixteen.
-    #[inline(never)]
+    /// A new batch [`QuadBatch::fill`]ed (the tests' form: the renderer fills its
+    /// threads' batches in place).
+    #[cfg(test)]
     pub(super) fn new(light: &LightSampler, rays: &ShadowRays, normal: Vec3, xi: &[Vec2; BATCH], count: usize) -> Self {
         let mut b = QuadBatch::EMPTY;
         b.fill(light, rays, normal, xi, count);
@@ -81,8 +77,13 @@ impl QuadBatch {
         has_ray: [false; BATCH],
     };
 
-    /// [`QuadBatch::new`] in place: the lanes it computes (eight when `count` is at most
-    /// 8, else sixteen) are overwritten, the others left as they are.
+    /// Samples `xi[..count]` of the quad light `light` seen from the hit whose shading
+    /// normal is `normal` and whose shadow rays leave as `rays` says, in place: the lanes
+    /// it computes (eight when `count` is at most 8, else sixteen) are overwritten, the
+    /// others left as they are. Only the first `count` lanes are meaningful (the others
+    /// are computed from whatever `xi` holds there).
+    /// PERF: eight lanes computed when `count` is at most 8 (the conference room's eight
+    /// light samples): 5% of that render was this function computing all sixteen.
     pub(super) fn fill(&mut self, light: &LightSampler, rays: &ShadowRays, normal: Vec3, xi: &[Vec2; BATCH], count: usize) {
         // PERF: a grey light (the course's are white) divides its radiance once per lane,
         // not once per channel: 4 of the 24 divisions and square roots of sixteen lanes.
