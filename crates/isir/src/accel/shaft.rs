@@ -6,8 +6,9 @@
 //! light. A triangle that lies outside the shaft can never block such a ray, so the ray
 //! only needs the triangles that meet the shaft — often none or a handful, against a walk
 //! down the whole tree. The first ray from a cell finds its list by walking the tree with
-//! the shaft instead of a ray ([`ShaftGrid::list`]); a cell whose shaft meets more than
-//! [`MAX_TRIANGLES`] triangles is marked so, and its rays take the tree.
+//! the shaft instead of a ray ([`ShaftGrid::cell`]); a cell whose shaft meets more than
+//! [`MAX_TRIANGLES`] triangles keeps instead a cut of the tree ([`Cell::Entry`]): the
+//! subtrees the shaft meets, where its rays' walks start.
 //!
 //! The lists hold copies of the tree's own blocks' triangles, and a ray is tested against
 //! them with the tree's own triangle test, so a ray gets exactly the tree's answer from
@@ -147,21 +148,10 @@ impl ShaftGrid {
         (lo, lo + Vec3::splat(self.cell))
     }
 
-    /// The triangles of `bvh` that a shadow ray from a point of cell `index` to the light
-    /// may meet, or `None` when there are more than [`MAX_TRIANGLES`] (then trace the ray
-    /// through the tree). Made on the first call for the cell; the same list on every call
-    /// and every thread.
-    #[must_use]
-    pub fn list<'a>(&'a self, bvh: &WideBvh, index: usize) -> Option<&'a [Tri4]> {
-        match self.cell(bvh, index) {
-            Cell::List(list) => Some(list),
-            _ => None,
-        }
-    }
-
-    /// What cell `index`'s rays are answered from: its list, or the node where they enter
-    /// `bvh`. Made on the first call for the cell; the same on every call and every
-    /// thread.
+    /// What cell `index`'s rays are answered from: the list of the triangles of `bvh` that
+    /// a shadow ray from a point of the cell to the light may meet, or, past
+    /// [`MAX_TRIANGLES`] of them, the cut of the tree where its rays' walks start. Made on
+    /// the first call for the cell; the same on every call and every thread.
     #[must_use]
     pub fn cell<'a>(&'a self, bvh: &WideBvh, index: usize) -> &'a Cell {
         self.cells[index].get_or_init(|| self.make_cell(bvh, index))
@@ -679,7 +669,7 @@ mod tests {
             for round in 0..3000 {
                 let origin = origin_in_room(&mut rng, round);
                 let rays = fan(origin, corner, u, v, &mut rng, round);
-                let Some(list) = grid.cell_of(origin).and_then(|c| grid.list(bvh, c)) else {
+                let Some(Cell::List(list)) = grid.cell_of(origin).map(|c| grid.cell(bvh, c)) else {
                     traced += 1;
                     continue;
                 };
