@@ -400,7 +400,7 @@ const QUAD_EDGES: [(usize, usize); 4] = [(8, 9), (8, 10), (9, 11), (10, 11)];
 /// At the scene's own 4 spp the lists then no longer cost more than they save. The twelve
 /// points' sides are then found for all the candidates at once, candidate by candidate
 /// in a loop the compiler vectorises (the same floats as one candidate at a time,
-/// [`hull_planes_one_by_one`] in the tests): 38% of the cells' instructions were that
+/// `hull_planes_one_by_one` in the tests): 38% of the cells' instructions were that
 /// loop, one candidate at a time.
 fn hull_planes(points: &[Vec3; 12], slack: f32) -> Vec<HalfSpace> {
     #[cfg(target_arch = "x86_64")]
