@@ -18,7 +18,7 @@ const LAYERS: &[&[&str]] = &[
     &["camera"],
     &["accel"],
     &["math"],
-    &["error"],
+    &["kept", "error"],
 ];
 
 fn layer(module: &str) -> Option<usize> {
