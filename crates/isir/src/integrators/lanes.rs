@@ -21,7 +21,6 @@ use crate::kept::{Kept, Slot};
 use crate::lights::{Light, LightSampler};
 use crate::materials::Material;
 use crate::math::color::Color;
-
 use crate::math::ray::{lane_mask, lanes_of, spawn_lanes, RayLanes, LANES};
 use crate::math::sampling::{cosine_hemisphere_lanes, Sampler};
 use crate::scene::Scene;
