@@ -470,32 +470,32 @@ fn hull_planes_portable(points: &[Vec3; 12], slack: f32) -> Vec<HalfSpace> {
 /// The hull's candidate faces as numbers of [`hull_planes`]' points: a box edge and a
 /// light corner, a light edge and a box corner, and the light's plane.
 const HULL_CANDIDATES: [(usize, usize, usize); 81] = {
-    let mut out = [(0, 0, 0); 81];
-    let mut n = 0;
-    let mut e = 0;
-    while e < BOX_EDGES.len() {
-        let mut q = 8;
-        while q < 12 {
-            out[n] = (BOX_EDGES[e].0, BOX_EDGES[e].1, q);
-            n += 1;
-            q += 1;
-        }
-        e += 1;
-    }
-    let mut e = 0;
-    while e < QUAD_EDGES.len() {
-        let mut c = 0;
-        while c < 8 {
-            out[n] = (QUAD_EDGES[e].0, QUAD_EDGES[e].1, c);
-            n += 1;
-            c += 1;
-        }
-        e += 1;
-    }
+    let (out, n) = edges_with(([(0, 0, 0); 81], 0), &BOX_EDGES, 8..12);
+    let (mut out, n) = edges_with((out, n), &QUAD_EDGES, 0..8);
     out[n] = (8, 9, 10);
     assert!(n + 1 == 81);
     out
 };
+
+/// `faces` (its first `n` written) followed by every edge of `edges` with every point of
+/// `points`, edge by edge.
+const fn edges_with(
+    (mut faces, mut n): ([(usize, usize, usize); 81], usize),
+    edges: &[(usize, usize)],
+    points: std::ops::Range<usize>,
+) -> ([(usize, usize, usize); 81], usize) {
+    let mut e = 0;
+    while e < edges.len() {
+        let mut p = points.start;
+        while p < points.end {
+            faces[n] = (edges[e].0, edges[e].1, p);
+            n += 1;
+            p += 1;
+        }
+        e += 1;
+    }
+    (faces, n)
+}
 
 /// [`HULL_CANDIDATES`] rounded up to whole rows of eight lanes.
 const CANDIDATE_ROWS: usize = HULL_CANDIDATES.len().div_ceil(8) * 8;
