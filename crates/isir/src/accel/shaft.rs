@@ -880,12 +880,19 @@ mod tests {
         }
     }
 
-    /// [`hull_planes`] one candidate at a time (the form before the rows): the reference
-    /// its rows must match float for float.
+    /// [`hull_planes`] one candidate at a time, the candidates listed by iterators (the
+    /// form before the rows and [`HULL_CANDIDATES`]): the reference its rows must match
+    /// float for float.
     fn hull_planes_one_by_one(points: &[Vec3; 12], slack: f32) -> Vec<HalfSpace> {
         let mut planes: Vec<HalfSpace> = Vec::new();
         let slack2 = slack * slack;
-        for &(i, j, k) in &HULL_CANDIDATES {
+        // The candidates as the one-by-one form listed them.
+        let candidates = BOX_EDGES
+            .iter()
+            .flat_map(|&(a, b)| (8..12).map(move |q| (a, b, q)))
+            .chain(QUAD_EDGES.iter().flat_map(|&(a, b)| (0..8).map(move |c| (a, b, c))))
+            .chain(std::iter::once((8, 9, 10)));
+        for (i, j, k) in candidates {
             let n = (points[j] - points[i]).cross(points[k] - points[i]);
             let len2 = n.length_squared();
             if !(len2 > 0.0 && len2.is_finite()) {
