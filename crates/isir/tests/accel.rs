@@ -125,10 +125,18 @@ fn degenerate_meshes_and_rays_never_panic_nor_hit_wrongly() {
         assert_eq!((h.prim, h.t), (4, 1.0), "{}", accel.name());
         assert_eq!(m.intersect(&on_collinear, 0.0, f32::INFINITY), None);
 
-        let mut empty = TriangleMesh::new(vec![], vec![], vec![]);
-        empty.build_accel(accel);
-        assert_eq!(empty.intersect(&good, 0.0, f32::INFINITY), None);
-        assert!(!empty.occluded(&good, 0.0, f32::INFINITY));
+        // An empty mesh, made by `new` or `default`, single rays and batches.
+        for mut empty in [TriangleMesh::new(vec![], vec![], vec![]), TriangleMesh::default()] {
+            assert_eq!(empty.aabb(), isir::math::aabb::Aabb::EMPTY);
+            empty.build_accel(accel);
+            assert_eq!(empty.intersect(&good, 0.0, f32::INFINITY), None);
+            assert!(!empty.occluded(&good, 0.0, f32::INFINITY));
+            let segment = isir::math::ray::RaySegment { origin: good.origin, t_min: 0.0, direction: good.direction, t_max: f32::INFINITY };
+            let (mut closest, mut blocked) = ([Some(h)], [true]);
+            empty.intersect_batch(&[segment], &mut closest);
+            empty.occluded_batch(&[segment], &mut blocked);
+            assert_eq!((closest, blocked), ([None], [false]), "{}", accel.name());
+        }
     }
 }
 

@@ -137,7 +137,7 @@ pub struct MeshStats {
 }
 
 /// A triangle mesh.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 pub struct TriangleMesh {
     /// Vertex positions.
     pub vertices: Vec<Vec3>,
@@ -160,6 +160,13 @@ pub struct TriangleMesh {
     valid: Vec<bool>,
     accel: MeshAccel,
     stats: MeshStats,
+}
+
+impl Default for TriangleMesh {
+    /// The mesh of no triangles, as [`TriangleMesh::new`] makes it (its box empty).
+    fn default() -> Self {
+        Self::new(Vec::new(), Vec::new(), Vec::new())
+    }
 }
 
 impl Triangles for TriangleMesh {
