@@ -371,22 +371,26 @@ impl WideBvh {
 
     /// The closest hit in `[t_min, t_max)`.
     #[must_use]
+    #[inline]
     pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<MeshHit> {
         self.intersect_stats::<false>(ray, t_min, t_max, &mut TraversalStats::default())
     }
 
     /// True when a triangle meets the ray in `[t_min, t_max)`.
     #[must_use]
+    #[inline]
     pub fn occluded(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
         self.occluded_stats::<false>(ray, t_min, t_max, &mut TraversalStats::default())
     }
 
     /// [`Self::intersect`], counting into `stats` when `STATS`.
+    #[inline]
     pub fn intersect_stats<const STATS: bool>(&self, ray: &Ray, t_min: f32, t_max: f32, stats: &mut TraversalStats) -> Option<MeshHit> {
         self.dispatch::<false, STATS>(ray, t_min, t_max, stats)
     }
 
     /// [`Self::occluded`], counting into `stats` when `STATS`.
+    #[inline]
     pub fn occluded_stats<const STATS: bool>(&self, ray: &Ray, t_min: f32, t_max: f32, stats: &mut TraversalStats) -> bool {
         self.dispatch::<true, STATS>(ray, t_min, t_max, stats).is_some()
     }
