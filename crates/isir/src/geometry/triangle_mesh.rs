@@ -630,7 +630,9 @@ impl TriangleMesh {
             MeshAccel::Wide(w) => {
                 // PERF: the filter's box computed once, the accel matched once, not per
                 // ray as `intersect` does: conference rays, one thread, +2% diffuse and
-                // random, +5% primary.
+                // random, +5% primary. `WideBvh::batch` has the same loop for a tree it
+                // does not interleave; through it (answers put by index) primary and shadow
+                // rays took 1.01 of the time.
                 let may_hit = self.may_hit_filter();
                 for (o, r) in out.iter_mut().zip(rays) {
                     *o = if may_hit(r) { w.intersect(&r.ray(), r.t_min, r.t_max) } else { None };
