@@ -7,9 +7,9 @@ use crate::geometry::Hit;
 use crate::lights::LightSampler;
 use crate::materials::Material;
 use crate::math::color::Color;
-use crate::math::ray::{Ray, ShadowRays};
+use crate::math::ray::{lane_mask, Ray, ShadowRays};
 use crate::math::sampling::Sampler;
-use crate::scene::Scene;
+use crate::scene::{BoxProof, QuadPlanes, Scene};
 use glam::Vec2;
 
 /// The direct-lighting integrator's `Li`.
@@ -59,7 +59,7 @@ pub(super) fn direct_lighting(
         let n = if light.is_surface() { light_samples.max(1) } else { 1 };
         li += match light_sampler {
             LightSampler::Quad { .. } => with_quad_scratch(|scratch| {
-                quad_light(scene, ray, hit, material, &light_sampler, &mut shadow_rays, n, sampler, counters, scratch)
+                quad_light(scene, ray, hit, material, &light_sampler, &mut shadow_rays, n, sampler, counters, scratch, None)
             }),
             _ => one_light(scene, ray, hit, material, &light_sampler, &mut shadow_rays, n, sampler, counters),
         };
@@ -123,6 +123,7 @@ pub(super) fn quad_light(
     sampler: &mut Sampler,
     counters: &mut RayCounters,
     scratch: &mut QuadScratch,
+    planes: Option<(&QuadPlanes, &BoxProof)>,
 ) -> Color {
     if n < BATCH_FROM {
         return one_light(scene, ray, hit, material, light_sampler, shadow_rays, n, sampler, counters);
@@ -142,13 +143,14 @@ pub(super) fn quad_light(
             sampler: &mut Sampler,
             counters: &mut RayCounters,
             scratch: &mut QuadScratch,
+            planes: Option<(&QuadPlanes, &BoxProof)>,
         ) -> Color {
-            quad_batches(scene, ray, hit, material, light_sampler, shadow_rays, n, sampler, counters, scratch)
+            quad_batches(scene, ray, hit, material, light_sampler, shadow_rays, n, sampler, counters, scratch, planes)
         }
         // SAFETY: the CPU has AVX2 and POPCNT, which is all `avx2` is compiled for.
-        return unsafe { avx2(scene, ray, hit, material, light_sampler, shadow_rays, n, sampler, counters, scratch) };
+        return unsafe { avx2(scene, ray, hit, material, light_sampler, shadow_rays, n, sampler, counters, scratch, planes) };
     }
-    quad_batches(scene, ray, hit, material, light_sampler, shadow_rays, n, sampler, counters, scratch)
+    quad_batches(scene, ray, hit, material, light_sampler, shadow_rays, n, sampler, counters, scratch, planes)
 }
 
 /// [`quad_light`]'s batches, compiled for the caller's instruction set (no FMA
@@ -166,6 +168,7 @@ fn quad_batches(
     sampler: &mut Sampler,
     counters: &mut RayCounters,
     scratch: &mut QuadScratch,
+    planes: Option<(&QuadPlanes, &BoxProof)>,
 ) -> Color {
     let mut sum = Color::ZERO;
     let mut xi = [Vec2::ZERO; BATCH];
@@ -180,7 +183,20 @@ fn quad_batches(
         let live = live_mask(&batch.live, count);
         counters.shadow += u64::from(live.count_ones());
         // All the hit's shadow rays at once (`Scene::occluded_lanes` decides how).
-        let blocked = scene.occluded_lanes(&batch.rays, live);
+        // The planes proved to block none of the rays (`Scene::quad_planes`): from the
+        // front, and from the back too when a ray leaves from there.
+        let skip = match planes {
+            Some((table, proof)) => {
+                let front = table.clear(proof, batch.origins[0]);
+                if front != 0 && lane_mask(&batch.back) & live != 0 {
+                    front & table.clear(proof, batch.origins[1])
+                } else {
+                    front
+                }
+            }
+            None => 0,
+        };
+        let blocked = scene.occluded_lanes_except(&batch.rays, live, skip);
         match same {
             Some(c) => batch.add_seen_same(c, live & !blocked, count, &mut sum),
             None => {
@@ -220,8 +236,8 @@ mod tests {
             let (mut ca, mut cb) = (RayCounters::default(), RayCounters::default());
             let (mut sa, mut sb) = (QuadScratch::EMPTY, QuadScratch::EMPTY);
             let (mut ra, mut rb) = (hit.shadow_rays(), hit.shadow_rays());
-            let fast = quad_light(&scene, &ray, &hit, material, &light, &mut ra, n, &mut a, &mut ca, &mut sa);
-            let portable = quad_batches(&scene, &ray, &hit, material, &light, &mut rb, n, &mut b, &mut cb, &mut sb);
+            let fast = quad_light(&scene, &ray, &hit, material, &light, &mut ra, n, &mut a, &mut ca, &mut sa, None);
+            let portable = quad_batches(&scene, &ray, &hit, material, &light, &mut rb, n, &mut b, &mut cb, &mut sb, None);
             assert_eq!(fast.to_array().map(f32::to_bits), portable.to_array().map(f32::to_bits), "round {round}");
             assert_eq!((ca, a.next_f32().to_bits()), (cb, b.next_f32().to_bits()), "round {round}");
             lit += usize::from(fast != Color::ZERO);

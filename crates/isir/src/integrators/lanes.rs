@@ -300,13 +300,28 @@ fn direct_lanes(
             }
             // Each hit's shadow rays made where they are used. PERF: an array of the
             // sixteen hits' `ShadowRays` made first was 2% of tp6-matte-quad.
+            // The planes that cannot block the shadow rays, proved for a box around the
+            // lanes' hits (a pixel's samples), then per hit.
+            let LightSampler::Quad { corner, u, v, .. } = light_sampler else { unreachable!("a quad light") };
+            let planes = scene.quad_planes([corner, u, v]).map(|table| {
+                let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+                for hit in hits[..n].iter().flatten() {
+                    // A margin wider than the shadow rays' offsets (an origin outside the
+                    // box gets no proof).
+                    let margin = 1e-3 * (1.0 + hit.point.abs().max_element()) + 4.0 * hit.point_error;
+                    (lo, hi) = (lo.min(hit.point - margin), hi.max(hit.point + margin));
+                }
+                (table, table.for_box(lo, hi))
+            });
+            let planes = planes.as_ref().map(|(t, p)| (*t, p));
             with_quad_scratch(|scratch| {
                 for k in 0..n {
                     if let Some(hit) = &hits[k] {
                         let material = scene.material(hit);
                         let sampler = &mut samplers[k];
                         let mut sr = hit.shadow_rays();
-                        li[k] += quad_light(scene, &rays.ray(k), hit, material, &light_sampler, &mut sr, m, sampler, counters, scratch);
+                        li[k] +=
+                            quad_light(scene, &rays.ray(k), hit, material, &light_sampler, &mut sr, m, sampler, counters, scratch, planes);
                     }
                 }
             });

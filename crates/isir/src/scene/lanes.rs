@@ -363,12 +363,20 @@ impl Scene {
     /// ([`crate::geometry::TriangleMesh::occluded_lanes`]) from [`MESH_PACKET_FROM`] rays, one by one below.
     #[must_use]
     pub fn occluded_lanes(&self, rays: &RayLanes, live: u32) -> u32 {
+        self.occluded_lanes_except(rays, live, 0)
+    }
+
+    /// [`Scene::occluded_lanes`] without testing the objects `skip` names (bit `i` for
+    /// object `i`), which the caller has proved block none of the rays
+    /// ([`Scene::quad_planes`]): the same answers.
+    #[must_use]
+    pub(crate) fn occluded_lanes_except(&self, rays: &RayLanes, live: u32, skip: u64) -> u32 {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU has AVX2, which is all `occluded_lanes_avx2` is compiled for.
-            return unsafe { self.occluded_lanes_avx2(rays, live) };
+            return unsafe { self.occluded_lanes_avx2(rays, live, skip) };
         }
-        self.occluded_lanes_portable::<false>(rays, live)
+        self.occluded_lanes_portable::<false>(rays, live, skip)
     }
 
     /// [`Scene::occluded_lanes`] for two batches of lanes at once (`[first's, second's]`,
@@ -416,8 +424,8 @@ impl Scene {
     /// contraction: the same floats).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn occluded_lanes_avx2(&self, rays: &RayLanes, live: u32) -> u32 {
-        self.occluded_lanes_portable::<true>(rays, live)
+    fn occluded_lanes_avx2(&self, rays: &RayLanes, live: u32, skip: u64) -> u32 {
+        self.occluded_lanes_portable::<true>(rays, live, skip)
     }
 
     /// The loops of [`Scene::occluded_lanes`]; `AVX2` when compiled into a function for
@@ -425,7 +433,7 @@ impl Scene {
     ///
     /// [`Plane::hit_lanes_avx2`]: crate::geometry::Plane::hit_lanes_avx2
     #[inline(always)]
-    pub(crate) fn occluded_lanes_portable<const AVX2: bool>(&self, rays: &RayLanes, live: u32) -> u32 {
+    pub(crate) fn occluded_lanes_portable<const AVX2: bool>(&self, rays: &RayLanes, live: u32, skip: u64) -> u32 {
         let live = live & (u32::MAX >> (32 - LANES));
         let single = |i: usize, k: usize| u32::from(self.blocks(i, &rays.ray(k), rays.t_min[k], rays.t_max[k])) << k;
         if self.top_level.is_some() || live.count_ones() < 2 {
@@ -443,6 +451,9 @@ impl Scene {
         for (i, object) in self.objects.iter().enumerate() {
             if open == 0 {
                 break;
+            }
+            if i < 64 && skip >> i & 1 != 0 {
+                continue;
             }
             let blocked = match &object.geometry {
                 Geometry::Sphere(s) => s.hit_lanes(rays) & open,
@@ -665,7 +676,7 @@ mod tests {
                 };
                 let got = scene.occluded_lanes(&lanes, live);
                 // The portable loops (CPUs without AVX2) answer the same.
-                assert_eq!(scene.occluded_lanes_portable::<false>(&lanes, live), got);
+                assert_eq!(scene.occluded_lanes_portable::<false>(&lanes, live, 0), got);
                 for (k, r) in rays.iter().enumerate() {
                     let expected = live & (1 << k) != 0 && scene.occluded(&r.ray(), r.t_min, r.t_max);
                     assert_eq!(got & (1 << k) != 0, expected, "{name}, round {round}, lane {k}: {r:?}");

@@ -19,8 +19,10 @@ use std::sync::OnceLock;
 
 mod flat;
 mod lanes;
+mod quad_planes;
 use flat::FlatObjects;
 pub use lanes::{LaneHits, NO_OBJECT};
+pub(crate) use quad_planes::{BoxProof, QuadPlanes};
 
 /// An object: a geometry and the materials of its parts (one, or one per mesh material).
 #[derive(Clone, Debug)]
@@ -57,6 +59,9 @@ pub struct Scene {
     /// [`Scene::prepare`] with the light they are for and their share of [`MAX_CELLS`],
     /// made when first asked for), else `None`.
     shafts: Vec<Option<LightShafts>>,
+    /// Per quad light, the table of [`Scene::quad_planes`] for its planes (set up
+    /// by [`Scene::prepare`] in a scene with planes and without `top_level`).
+    quad_planes: Vec<QuadPlanes>,
 }
 
 /// A quad light's shadow-ray cells: the light they are for, their share of [`MAX_CELLS`],
@@ -90,8 +95,17 @@ impl Scene {
     /// background, prepared for tracing ([`Scene::prepare`]).
     #[must_use]
     pub fn new(objects: Vec<Object>, materials: Vec<Material>, lights: Vec<Light>, background: Color) -> Scene {
-        let mut scene =
-            Scene { objects, materials, lights, background, warnings: Vec::new(), top_level: None, flat: None, shafts: Vec::new() };
+        let mut scene = Scene {
+            objects,
+            materials,
+            lights,
+            background,
+            warnings: Vec::new(),
+            top_level: None,
+            flat: None,
+            shafts: Vec::new(),
+            quad_planes: Vec::new(),
+        };
         scene.prepare();
         scene
     }
@@ -108,6 +122,7 @@ impl Scene {
         } else {
             self.flat = FlatObjects::new(&self.objects);
         }
+        self.quad_planes = if self.top_level.is_none() { QuadPlanes::of(&self.lights, &self.objects) } else { Vec::new() };
         let quads = self.lights.iter().filter(|l| l.is_surface()).count();
         self.shafts = match self.pair_mesh() {
             Some(_) => {
@@ -115,6 +130,15 @@ impl Scene {
             }
             None => Vec::new(),
         };
+    }
+
+    /// What proves, for the shadow rays towards points of the quad light `[corner, u,
+    /// v]`, that planes cannot block them ([`QuadPlanes::for_box`], then
+    /// [`QuadPlanes::clear`] per origin, for [`Scene::occluded_lanes_except`]); none for a
+    /// light the scene was not prepared with, or a scene without planes.
+    #[inline]
+    pub(crate) fn quad_planes(&self, light: [Vec3; 3]) -> Option<&QuadPlanes> {
+        self.quad_planes.iter().find(|t| t.is_for(light, self.objects.len()))
     }
 
     /// The shadow-ray cells of quad light `light` and the tree their lists come from: in
