@@ -160,7 +160,6 @@ impl QuadBatch {
             }
         }
         let mut lit = [false; BATCH];
-        let mut side_back = [false; BATCH];
         for j in 0..W {
             let d = (to[0][j] * to[0][j] + to[1][j] * to[1][j] + to[2][j] * to[2][j]).sqrt();
             b.distance[j] = d;
@@ -171,8 +170,7 @@ impl QuadBatch {
             let pdf = d * d / (area * cl);
             b.pdf[j] = if lit[j] { pdf } else { 0.0 };
             b.cos[j] = (wi[0] * sn[0] + wi[1] * sn[1] + wi[2] * sn[2]).max(0.0);
-            side_back[j] = to[0][j] * g[0] + to[1][j] * g[1] + to[2][j] * g[2] < 0.0;
-            b.back[j] = side_back[j];
+            b.back[j] = to[0][j] * g[0] + to[1][j] * g[1] + to[2][j] * g[2] < 0.0;
             for k in 0..3 {
                 b.wi[k][j] = wi[k];
             }
@@ -190,7 +188,7 @@ impl QuadBatch {
                 if !GREY {
                     b.radiance[k][j] = if lit[j] { e[k] / b.pdf[j] } else { 0.0 };
                 }
-                b.rays.o[k][j] = if side_back[j] { back[k] } else { front[k] };
+                b.rays.o[k][j] = if b.back[j] { back[k] } else { front[k] };
                 to[k][j] = point[k][j] - b.rays.o[k][j];
             }
         }

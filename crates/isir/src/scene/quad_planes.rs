@@ -39,9 +39,7 @@
 //!
 //! [`ShadowRays::to`]: crate::math::ray::ShadowRays::to
 
-use crate::geometry::Geometry;
-#[cfg(doc)]
-use crate::geometry::Plane;
+use crate::geometry::{Geometry, Plane};
 use crate::lights::Light;
 use glam::{DVec3, Vec3};
 
@@ -113,7 +111,7 @@ impl QuadPlanes {
     /// The tables of `lights`' quad lights, for the first [`PLANES`] planes among the
     /// first 64 of `objects`; none without a plane there.
     pub(crate) fn of(lights: &[Light], objects: &[Object]) -> Vec<QuadPlanes> {
-        let planes: Vec<(usize, crate::geometry::Plane)> = objects
+        let planes: Vec<(usize, Plane)> = objects
             .iter()
             .enumerate()
             .take(64)
