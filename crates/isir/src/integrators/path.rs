@@ -16,7 +16,7 @@ use crate::kept::{Kept, Slot};
 use crate::lights::{Light, LightHit, LightSample, LightSampler};
 use crate::materials::{BsdfSample, Material};
 use crate::math::color::Color;
-use crate::math::ray::Ray;
+use crate::math::ray::{lanes_of, Ray};
 use crate::math::sampling::Sampler;
 use crate::scene::Scene;
 use glam::{Vec2, Vec3};
@@ -398,6 +398,17 @@ fn next_event(
                 let count = (n - first).min(BATCH as u32) as usize;
                 sampler.fill_2d(&mut xi[..count]);
                 batch.fill(light_sampler, &shadow_rays, hit.normal, &xi, count);
+                if let Material::Matte { kd, sigma } = *material {
+                    // The same samples, values and sums as below, computed in lanes.
+                    let mut value = [[0f32; BATCH]; 3];
+                    let traced = batch.matte_values(kd, sigma, hit.normal, wo, n, count, &mut value);
+                    counters.shadow += u64::from(traced.count_ones());
+                    let blocked = scene.occluded_lanes(&batch.rays, traced);
+                    for j in lanes_of(traced & !blocked) {
+                        acc += Color::new(value[0][j], value[1][j], value[2][j]);
+                    }
+                    continue;
+                }
                 // The samples `visit` would trace, their shadow rays traced as one packet,
                 // then summed in order as `visit` sums them.
                 let mut f = [Color::ZERO; BATCH];

@@ -11,7 +11,7 @@
 
 use crate::geometry::{Hit, HitRows};
 use crate::lights::{LightSample, LightSampler};
-use crate::materials::Material;
+use crate::materials::{oren_nayar_lanes, Material};
 use crate::math::color::Color;
 use crate::math::ray::{lane_mask, round_away, Ray, RayLanes, ShadowRays};
 use glam::{Vec2, Vec3};
@@ -209,6 +209,88 @@ impl QuadBatch {
         lane_sample(j, &self.wi, &self.distance, &self.point, &self.radiance, &self.pdf)
     }
 
+    /// The samples `0..count` of a quad light sampled `n` times per vertex, seen from a hit
+    /// of the course's `MatteMaterial` (Oren–Nayar, `kd`, `sigma`) whose shading normal is
+    /// `normal`, the path leaving towards `wo`: the lanes whose sample is worth its shadow
+    /// ray (`has_ray` and [`super::path::Path::light_sample_f`] together), and what each
+    /// brings when unoccluded ([`super::path::Path::quad_sample_value`]): the operations of
+    /// `Material::eval` ([`oren_nayar_lanes`], the same floats as `oren_nayar`),
+    /// `Material::pdf`, the power heuristic and the sample's value in their order, so the
+    /// same floats, as SIMD loops (AVX2 where the CPU has it).
+    /// PERF: one sample at a time, `oren_nayar` and `Material::pdf` were 53% of the path
+    /// tracer on the TP6 rooms with their own materials.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn matte_values(
+        &self,
+        kd: Color,
+        sigma: f32,
+        normal: Vec3,
+        wo: Vec3,
+        n: u32,
+        count: usize,
+        value: &mut [[f32; BATCH]; 3],
+    ) -> u32 {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            #[target_feature(enable = "avx2")]
+            #[allow(clippy::too_many_arguments)]
+            fn avx2(
+                b: &QuadBatch,
+                kd: Color,
+                sigma: f32,
+                normal: Vec3,
+                wo: Vec3,
+                n: u32,
+                count: usize,
+                value: &mut [[f32; BATCH]; 3],
+            ) -> u32 {
+                b.matte_values_portable(kd, sigma, normal, wo, n, count, value)
+            }
+            // SAFETY: the CPU has AVX2, which is all `avx2` is compiled for.
+            return unsafe { avx2(self, kd, sigma, normal, wo, n, count, value) };
+        }
+        self.matte_values_portable(kd, sigma, normal, wo, n, count, value)
+    }
+
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments, clippy::needless_range_loop)] // the loops vectorise
+    fn matte_values_portable(
+        &self,
+        kd: Color,
+        sigma: f32,
+        normal: Vec3,
+        wo: Vec3,
+        n: u32,
+        count: usize,
+        value: &mut [[f32; BATCH]; 3],
+    ) -> u32 {
+        // `Material::eval`: black unless both directions are above the surface, which is
+        // what `oren_nayar` itself tests (the same dot products), so `oren_nayar` alone.
+        oren_nayar_lanes(kd, sigma, normal, wo, &self.wi, value);
+        let (wi, rad) = (&self.wi, &self.radiance);
+        let nm = normal.to_array();
+        let nf = n as f32;
+        // `Vec3::dot`, left to right.
+        let nwo = nm[0] * wo.x + nm[1] * wo.y + nm[2] * wo.z;
+        let mut traced = [false; BATCH];
+        for j in 0..BATCH {
+            let nwi = nm[0] * wi[0][j] + nm[1] * wi[1][j] + nm[2] * wi[2][j];
+            // `traced_f`: some radiance, a valid pdf, `eval` not zero.
+            let some_radiance = !((rad[0][j] == 0.0) & (rad[1][j] == 0.0) & (rad[2][j] == 0.0));
+            let pdf = self.pdf[j];
+            let valid_pdf = !(pdf.is_nan() | (pdf <= 0.0));
+            let some_f = !((value[0][j] == 0.0) & (value[1][j] == 0.0) & (value[2][j] == 0.0));
+            traced[j] = some_radiance & valid_pdf & some_f & self.has_ray[j];
+            // `Material::pdf` of Oren–Nayar: the cosine lobe's.
+            let w = cosine_lobe_weight(nf, pdf, nwo, nwi);
+            let cos = nwi.abs();
+            for k in 0..3 {
+                value[k][j] = value[k][j] * rad[k][j] * cos * w;
+            }
+        }
+        live_mask(&traced, count)
+    }
+
     /// `material.shade(ray, hit, &self.sample(j))` for every sample `j` (`[axis][j]`), the
     /// same floats, computed together ([`Material::shade_lanes`], for AVX2 where the CPU
     /// has it).
@@ -380,6 +462,29 @@ fn lane_sample(
 ) -> LightSample {
     let at = |a: &[[f32; BATCH]; 3]| Vec3::new(a[0][j], a[1][j], a[2][j]);
     LightSample { direction: at(wi), distance: distance[j], point: at(point), radiance: at(radiance), pdf: pdf[j] }
+}
+
+/// The MIS weight (`quad_weight`: the power heuristic) of a light sample of pdf `pdf`, one
+/// of `nf` per vertex, against a material whose `Material::pdf` is the cosine lobe's
+/// (no glossy lobe: Lambert's, Oren–Nayar's), given `n · wo` and `n · wi`: their
+/// operations in their order, so the same floats, for the SIMD loops.
+#[inline(always)]
+fn cosine_lobe_weight(nf: f32, pdf: f32, nwo: f32, nwi: f32) -> f32 {
+    // `Material::pdf`: zero below the surface, else `(1 - p)·cos/π + p·glossy`, `p` 0.
+    let (p, glossy) = (0.0f32, 0.0f32);
+    let cos_pdf = nwi.max(0.0) * std::f32::consts::FRAC_1_PI;
+    let below = (nwo <= 0.0) | (nwi <= 0.0);
+    let m_pdf = if below { 0.0 } else { (1.0 - p) * cos_pdf + p * glossy };
+    // `power_heuristic(nf, pdf, 1, m_pdf)`.
+    let (a, b) = (nf * pdf, 1.0 * m_pdf);
+    let (a2, b2) = (a * a, b * b);
+    if a.is_infinite() {
+        1.0
+    } else if a2 + b2 > 0.0 {
+        a2 / (a2 + b2)
+    } else {
+        0.0
+    }
 }
 
 /// `sum / m`, the same floats: by a power of two as the product with its inverse, which
@@ -701,21 +806,7 @@ impl LightLanes {
             }
             let some_f = !((f[0] == 0.0) & (f[1] == 0.0) & (f[2] == 0.0));
             traced[j] = some_radiance & valid_pdf & some_f & self.has_ray[j];
-            // `Material::pdf` of the cosine lobe (no glossy lobe: `p` is 0).
-            let (p, glossy) = (0.0f32, 0.0f32);
-            let cos_pdf = nwi.max(0.0) * std::f32::consts::FRAC_1_PI;
-            let below = (nwo <= 0.0) | (nwi <= 0.0);
-            let m_pdf = if below { 0.0 } else { (1.0 - p) * cos_pdf + p * glossy };
-            // `power_heuristic(n, pdf, 1, m_pdf)`.
-            let (a, b) = (nf * pdf, 1.0 * m_pdf);
-            let (a2, b2) = (a * a, b * b);
-            let w = if !WEIGHTED || a.is_infinite() {
-                1.0
-            } else if a2 + b2 > 0.0 {
-                a2 / (a2 + b2)
-            } else {
-                0.0
-            };
+            let w = if WEIGHTED { cosine_lobe_weight(nf, pdf, nwo, nwi) } else { 1.0 };
             // `unoccluded`: f · L · |wi · n| · w (`wi · n` is `nwi`, bit for bit: the same
             // products, commuted, summed in the same order).
             let cos = nwi.abs();
@@ -1099,6 +1190,81 @@ mod tests {
             }
         }
         assert!(lit > 10_000 && unlit > 5_000, "{lit} {unlit}");
+    }
+
+    /// A batch's Oren–Nayar values for the path tracer are `next_event`'s, sample by
+    /// sample, bit for bit, on the AVX2 path (where this CPU has it) and the portable one:
+    /// whether each sample is worth its shadow ray (`has_ray` and `Path::light_sample_f`)
+    /// and what it brings unoccluded (`Path::quad_sample_value`), for counts of one to
+    /// sixteen, path directions above and below the surface, colours whose products
+    /// with zero are not `+0`, and the lanes past the count left out.
+    #[test]
+    fn matte_values_are_next_events_one_sample_at_a_time() {
+        use crate::integrators::path::Path;
+        let materials = [
+            (Vec3::new(0.5, 0.6, 0.7), 0.6),
+            (Vec3::ONE, 0.0),
+            (Vec3::ONE, 1.5),
+            (Vec3::new(-0.5, -0.0, 0.7), 0.3),
+            (Vec3::new(0.5, f32::INFINITY, 0.7), 0.3),
+        ];
+        let light = Light::Quad {
+            corner: Vec3::new(-1.0, 3.0, -1.0),
+            // `u × v` downwards: the light faces the hits below it.
+            u: Vec3::new(0.0, 0.5, 2.0),
+            v: Vec3::new(2.0, 0.0, 0.0),
+            color: Vec3::new(1.0, 0.5, 0.25),
+            power: 3.0,
+        };
+        let sampler = light.sampler();
+        let mut rng = Sampler::from_seed(17);
+        let (mut traced_lanes, mut untraced_lanes) = (0, 0);
+        for round in 0..3000 {
+            let (kd, sigma) = materials[round % materials.len()];
+            let material = Material::Matte { kd, sigma };
+            let scene = Scene::new(Vec::new(), vec![material.clone()], vec![light.clone()], Color::ZERO);
+            let mut r = || rng.next_f32() * 8.0 - 4.0;
+            let ng = Vec3::new(r(), r(), r()).normalize();
+            let normal = match round % 5 {
+                0 => Vec3::Y,
+                1 => -Vec3::Y,
+                _ => (ng + 0.2 * Vec3::new(r(), r(), r())).normalize(),
+            };
+            let p = Vec3::new(r(), r() * 0.5, r());
+            let hit = test_hit(p, Vec3::ZERO, normal, ng);
+            // The path leaves along the normal, above the surface, or below it.
+            let wo = match round % 3 {
+                0 => normal,
+                _ => Vec3::new(r(), r(), r()).normalize(),
+            };
+            let mut xi = [Vec2::ZERO; BATCH];
+            for x in &mut xi {
+                *x = Vec2::new(rng.next_f32(), rng.next_f32());
+            }
+            let count = 1 + round % BATCH;
+            let n = [4, 16, 23][round % 3];
+            let batch = QuadBatch::new(&sampler, &ShadowRays::new(p, Vec3::ZERO, ng), normal, &xi, count);
+            let (mut fast, mut portable) = ([[f32::NAN; BATCH]; 3], [[f32::NAN; BATCH]; 3]);
+            let fast_traced = batch.matte_values(kd, sigma, normal, wo, n, count, &mut fast);
+            let portable_traced = batch.matte_values_portable(kd, sigma, normal, wo, n, count, &mut portable);
+            assert_eq!(fast_traced, portable_traced);
+            for j in 0..BATCH {
+                let ls = batch.sample(j);
+                let f = Path::light_sample_f(&scene, &hit, wo, &ls).filter(|_| batch.has_ray[j] && j < count);
+                assert_eq!(fast_traced >> j & 1 != 0, f.is_some(), "{material:?} lane {j} of {count}");
+                let Some(f) = f else {
+                    untraced_lanes += 1;
+                    continue;
+                };
+                traced_lanes += 1;
+                let expected = Path::quad_sample_value(&scene, &hit, wo, &ls, f, n).to_array().map(f32::to_bits);
+                for k in 0..3 {
+                    assert_eq!(fast[k][j].to_bits(), expected[k], "{material:?} lane {j}");
+                    assert_eq!(portable[k][j].to_bits(), expected[k], "{material:?} lane {j}");
+                }
+            }
+        }
+        assert!(traced_lanes > 5_000 && untraced_lanes > 5_000, "{traced_lanes} {untraced_lanes}");
     }
 
     /// The bits of a light sample's floats.
