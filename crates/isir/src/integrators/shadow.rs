@@ -25,6 +25,30 @@ pub(super) const BATCH: usize = 16;
 /// 19% of the time (tp6-matte-quad, path, Lambert).
 pub(super) const BATCH_FROM: u32 = 4;
 
+/// A BRDF whose [`Material::pdf`] is the cosine lobe's, as [`QuadBatch::diffuse_values`]
+/// takes it: Oren–Nayar's (the course's `MatteMaterial`), or Lambert's of the given albedo
+/// (Lambert, the course's colours).
+#[derive(Clone, Copy, Debug)]
+pub(super) enum DiffuseLobe {
+    /// [`oren_nayar`](crate::materials::oren_nayar) of colour `kd` and roughness `sigma`.
+    OrenNayar { kd: Color, sigma: f32 },
+    /// `albedo / π`.
+    Lambert(Color),
+}
+
+impl DiffuseLobe {
+    /// The lobe of `material`, `None` for the glossy and delta kinds and for textures
+    /// (whose `Material::eval` lights a NaN direction where Lambert's does not: left to
+    /// the samples one at a time).
+    pub(super) fn of(material: &Material) -> Option<DiffuseLobe> {
+        match *material {
+            Material::Matte { kd, sigma } => Some(DiffuseLobe::OrenNayar { kd, sigma }),
+            Material::Color(c) | Material::Lambert(c) => Some(DiffuseLobe::Lambert(c)),
+            _ => None,
+        }
+    }
+}
+
 /// Up to [`BATCH`] samples of a quad light from one hit, and their shadow rays.
 pub(super) struct QuadBatch {
     point: [[f32; BATCH]; 3],
@@ -210,20 +234,19 @@ impl QuadBatch {
     }
 
     /// The samples `0..count` of a quad light sampled `n` times per vertex, seen from a hit
-    /// of the course's `MatteMaterial` (Oren–Nayar, `kd`, `sigma`) whose shading normal is
-    /// `normal`, the path leaving towards `wo`: the lanes whose sample is worth its shadow
-    /// ray (`has_ray` and [`super::path::Path::light_sample_f`] together), and what each
-    /// brings when unoccluded ([`super::path::Path::quad_sample_value`]): the operations of
-    /// `Material::eval` ([`oren_nayar_lanes`], the same floats as `oren_nayar`),
-    /// `Material::pdf`, the power heuristic and the sample's value in their order, so the
-    /// same floats, as SIMD loops (AVX2 where the CPU has it).
+    /// whose material's BRDF is the diffuse `lobe` and whose shading normal is `normal`,
+    /// the path leaving towards `wo`: the lanes whose sample is worth its shadow ray
+    /// (`has_ray` and [`super::path::Path::light_sample_f`] together), and what each brings
+    /// when unoccluded ([`super::path::Path::quad_sample_value`]): the operations of
+    /// `Material::eval` (for Oren–Nayar [`oren_nayar_lanes`], the same floats as
+    /// `oren_nayar`), `Material::pdf`, the power heuristic and the sample's value in their
+    /// order, so the same floats, as SIMD loops (AVX2 where the CPU has it).
     /// PERF: one sample at a time, `oren_nayar` and `Material::pdf` were 53% of the path
     /// tracer on the TP6 rooms with their own materials.
     #[allow(clippy::too_many_arguments)]
-    pub(super) fn matte_values(
+    pub(super) fn diffuse_values(
         &self,
-        kd: Color,
-        sigma: f32,
+        lobe: DiffuseLobe,
         normal: Vec3,
         wo: Vec3,
         n: u32,
@@ -234,54 +257,56 @@ impl QuadBatch {
         if std::arch::is_x86_feature_detected!("avx2") {
             #[target_feature(enable = "avx2")]
             #[allow(clippy::too_many_arguments)]
-            fn avx2(
-                b: &QuadBatch,
-                kd: Color,
-                sigma: f32,
-                normal: Vec3,
-                wo: Vec3,
-                n: u32,
-                count: usize,
-                value: &mut [[f32; BATCH]; 3],
-            ) -> u32 {
-                b.matte_values_portable(kd, sigma, normal, wo, n, count, value)
+            fn avx2(b: &QuadBatch, lobe: DiffuseLobe, normal: Vec3, wo: Vec3, n: u32, count: usize, value: &mut [[f32; BATCH]; 3]) -> u32 {
+                b.diffuse_values_portable(lobe, normal, wo, n, count, value)
             }
             // SAFETY: the CPU has AVX2, which is all `avx2` is compiled for.
-            return unsafe { avx2(self, kd, sigma, normal, wo, n, count, value) };
+            return unsafe { avx2(self, lobe, normal, wo, n, count, value) };
         }
-        self.matte_values_portable(kd, sigma, normal, wo, n, count, value)
+        self.diffuse_values_portable(lobe, normal, wo, n, count, value)
     }
 
     #[inline(always)]
     #[allow(clippy::too_many_arguments, clippy::needless_range_loop)] // the loops vectorise
-    fn matte_values_portable(
+    fn diffuse_values_portable(
         &self,
-        kd: Color,
-        sigma: f32,
+        lobe: DiffuseLobe,
         normal: Vec3,
         wo: Vec3,
         n: u32,
         count: usize,
         value: &mut [[f32; BATCH]; 3],
     ) -> u32 {
-        // `Material::eval`: black unless both directions are above the surface, which is
-        // what `oren_nayar` itself tests (the same dot products), so `oren_nayar` alone.
-        oren_nayar_lanes(kd, sigma, normal, wo, &self.wi, value);
         let (wi, rad) = (&self.wi, &self.radiance);
         let nm = normal.to_array();
         let nf = n as f32;
         // `Vec3::dot`, left to right.
         let nwo = nm[0] * wo.x + nm[1] * wo.y + nm[2] * wo.z;
+        let nwi = |j: usize| nm[0] * wi[0][j] + nm[1] * wi[1][j] + nm[2] * wi[2][j];
+        // `Material::eval`: black unless both directions are above the surface.
+        match lobe {
+            // What `oren_nayar` itself tests (the same dot products): `oren_nayar` alone.
+            DiffuseLobe::OrenNayar { kd, sigma } => oren_nayar_lanes(kd, sigma, normal, wo, &self.wi, value),
+            DiffuseLobe::Lambert(albedo) => {
+                let c = albedo.to_array();
+                for j in 0..BATCH {
+                    let above = (nwo > 0.0) & (nwi(j) > 0.0);
+                    for k in 0..3 {
+                        value[k][j] = if above { c[k] * std::f32::consts::FRAC_1_PI } else { 0.0 };
+                    }
+                }
+            }
+        }
         let mut traced = [false; BATCH];
         for j in 0..BATCH {
-            let nwi = nm[0] * wi[0][j] + nm[1] * wi[1][j] + nm[2] * wi[2][j];
+            let nwi = nwi(j);
             // `traced_f`: some radiance, a valid pdf, `eval` not zero.
             let some_radiance = !((rad[0][j] == 0.0) & (rad[1][j] == 0.0) & (rad[2][j] == 0.0));
             let pdf = self.pdf[j];
             let valid_pdf = !(pdf.is_nan() | (pdf <= 0.0));
             let some_f = !((value[0][j] == 0.0) & (value[1][j] == 0.0) & (value[2][j] == 0.0));
             traced[j] = some_radiance & valid_pdf & some_f & self.has_ray[j];
-            // `Material::pdf` of Oren–Nayar: the cosine lobe's.
+            // `Material::pdf` of both lobes: the cosine lobe's.
             let w = cosine_lobe_weight(nf, pdf, nwo, nwi);
             let cos = nwi.abs();
             for k in 0..3 {
@@ -1192,22 +1217,35 @@ mod tests {
         assert!(lit > 10_000 && unlit > 5_000, "{lit} {unlit}");
     }
 
-    /// A batch's Oren–Nayar values for the path tracer are `next_event`'s, sample by
-    /// sample, bit for bit, on the AVX2 path (where this CPU has it) and the portable one:
-    /// whether each sample is worth its shadow ray (`has_ray` and `Path::light_sample_f`)
-    /// and what it brings unoccluded (`Path::quad_sample_value`), for counts of one to
-    /// sixteen, path directions above and below the surface, colours whose products
-    /// with zero are not `+0`, and the lanes past the count left out.
+    /// A batch's values for the path tracer at a diffuse vertex (Oren–Nayar, Lambert, the
+    /// course's colours) are `next_event`'s, sample by sample, bit for bit, on the AVX2
+    /// path (where this CPU has it) and the portable one: whether each sample is worth its
+    /// shadow ray (`has_ray` and `Path::light_sample_f`) and what it brings unoccluded
+    /// (`Path::quad_sample_value`), for counts of one to sixteen, path directions above
+    /// and below the surface, colours whose products with zero are not `+0`, and the
+    /// lanes past the count left out. The glossy and delta kinds have no diffuse lobe.
     #[test]
-    fn matte_values_are_next_events_one_sample_at_a_time() {
+    fn diffuse_values_are_next_events_one_sample_at_a_time() {
         use crate::integrators::path::Path;
         let materials = [
-            (Vec3::new(0.5, 0.6, 0.7), 0.6),
-            (Vec3::ONE, 0.0),
-            (Vec3::ONE, 1.5),
-            (Vec3::new(-0.5, -0.0, 0.7), 0.3),
-            (Vec3::new(0.5, f32::INFINITY, 0.7), 0.3),
+            Material::Matte { kd: Vec3::new(0.5, 0.6, 0.7), sigma: 0.6 },
+            Material::Lambert(Vec3::new(0.9, 0.5, 0.1)),
+            Material::Matte { kd: Vec3::ONE, sigma: 0.0 },
+            Material::Color(Vec3::new(0.2, 0.4, 0.8)),
+            Material::Matte { kd: Vec3::ONE, sigma: 1.5 },
+            Material::Matte { kd: Vec3::new(-0.5, -0.0, 0.7), sigma: 0.3 },
+            Material::Lambert(Vec3::new(-0.5, -0.0, 0.7)),
+            Material::Matte { kd: Vec3::new(0.5, f32::INFINITY, 0.7), sigma: 0.3 },
+            Material::Color(Vec3::new(0.5, f32::INFINITY, 0.7)),
         ];
+        for m in [
+            Material::Plastic { kd: Vec3::ONE, ks: Vec3::ONE, shininess: 64.0, blinn: false },
+            Material::CookTorrance { kd: Vec3::ONE, f0: Vec3::ONE, roughness: 0.3, metalness: 0.5 },
+            Material::Mirror,
+            Material::Transparent { ior: 1.3 },
+        ] {
+            assert!(DiffuseLobe::of(&m).is_none(), "{m:?}");
+        }
         let light = Light::Quad {
             corner: Vec3::new(-1.0, 3.0, -1.0),
             // `u × v` downwards: the light faces the hits below it.
@@ -1220,8 +1258,7 @@ mod tests {
         let mut rng = Sampler::from_seed(17);
         let (mut traced_lanes, mut untraced_lanes) = (0, 0);
         for round in 0..3000 {
-            let (kd, sigma) = materials[round % materials.len()];
-            let material = Material::Matte { kd, sigma };
+            let material = materials[round % materials.len()].clone();
             let scene = Scene::new(Vec::new(), vec![material.clone()], vec![light.clone()], Color::ZERO);
             let mut r = || rng.next_f32() * 8.0 - 4.0;
             let ng = Vec3::new(r(), r(), r()).normalize();
@@ -1245,8 +1282,9 @@ mod tests {
             let n = [4, 16, 23][round % 3];
             let batch = QuadBatch::new(&sampler, &ShadowRays::new(p, Vec3::ZERO, ng), normal, &xi, count);
             let (mut fast, mut portable) = ([[f32::NAN; BATCH]; 3], [[f32::NAN; BATCH]; 3]);
-            let fast_traced = batch.matte_values(kd, sigma, normal, wo, n, count, &mut fast);
-            let portable_traced = batch.matte_values_portable(kd, sigma, normal, wo, n, count, &mut portable);
+            let lobe = DiffuseLobe::of(&material).expect("a diffuse material");
+            let fast_traced = batch.diffuse_values(lobe, normal, wo, n, count, &mut fast);
+            let portable_traced = batch.diffuse_values_portable(lobe, normal, wo, n, count, &mut portable);
             assert_eq!(fast_traced, portable_traced);
             for j in 0..BATCH {
                 let ls = batch.sample(j);
