@@ -303,42 +303,23 @@ impl Material {
     }
 
     /// True for the materials whose [`Material::sample`] draws from the cosine lobe alone
-    /// (Lambert's, the course's colours, textures, and Oren–Nayar's, whose mixture has no
-    /// glossy lobe).
+    /// (Lambert's, the course's colours, textures).
     #[must_use]
     pub fn samples_cosine_lobe(&self) -> bool {
-        matches!(self, Material::Color(_) | Material::Lambert(_) | Material::Textured { .. } | Material::Matte { .. })
+        matches!(self, Material::Color(_) | Material::Lambert(_) | Material::Textured { .. })
     }
 
-    /// [`Material::sample`]'s answer, bit for bit, for a material that
-    /// [`Material::samples_cosine_lobe`], given the lobe's direction `wi` and its pdf (those
-    /// of [`square_to_cosine_hemisphere`], drawn for many hits at once by
+    /// [`Material::sample`]'s answer for a material that [`Material::samples_cosine_lobe`],
+    /// given the lobe's direction `wi` and its pdf (those of
+    /// [`square_to_cosine_hemisphere`], drawn for many hits at once by
     /// [`crate::math::sampling::cosine_hemisphere_lanes`]): `None` when `wo` is below the
-    /// surface or the pdf is not positive (or, for Oren–Nayar, as its mixture decides).
+    /// surface or the pdf is not positive.
     #[must_use]
     pub fn cosine_lobe_sample_from(&self, hit: &Hit, wo: Vec3, wi: Vec3, pdf: f32) -> Option<BsdfSample> {
         if hit.normal.dot(wo) <= 0.0 {
             return None;
         }
-        if let Material::Matte { .. } = self {
-            return self.mixture_sample_from(hit, wo, wi);
-        }
         self.cosine_lobe_sample(hit, wi, pdf)
-    }
-
-    /// The rest of [`Material::sample`] for a mixture (Oren–Nayar, Phong, Cook–Torrance)
-    /// once its direction `wi` is drawn: the mixture's pdf and `f·cos/pdf`, or `None`
-    /// below the surface or for a pdf that is not positive and finite.
-    #[inline(always)]
-    fn mixture_sample_from(&self, hit: &Hit, wo: Vec3, wi: Vec3) -> Option<BsdfSample> {
-        let n = hit.normal;
-        let cos_i = n.dot(wi);
-        let pdf = self.pdf(hit, wo, wi);
-        if cos_i <= 0.0 || pdf <= 0.0 || !pdf.is_finite() {
-            return None;
-        }
-        let weight = self.brdf(n, wo, wi) * cos_i / pdf;
-        weight.is_finite().then_some(BsdfSample { wi, weight, pdf, delta: false })
     }
 
     #[inline(always)]
@@ -378,7 +359,13 @@ impl Material {
                 } else {
                     square_to_cosine_hemisphere(n, u)
                 };
-                self.mixture_sample_from(hit, wo, wi)
+                let cos_i = n.dot(wi);
+                let pdf = self.pdf(hit, wo, wi);
+                if cos_i <= 0.0 || pdf <= 0.0 || !pdf.is_finite() {
+                    return None;
+                }
+                let weight = self.brdf(n, wo, wi) * cos_i / pdf;
+                weight.is_finite().then_some(BsdfSample { wi, weight, pdf, delta: false })
             }
             Material::Mirror => Some(BsdfSample { wi: reflect(wo, n), weight: WHITE, pdf: 0.0, delta: true }),
             Material::Transparent { ior } => {
