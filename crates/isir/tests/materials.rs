@@ -127,6 +127,60 @@ fn no_material_returns_nan_even_at_grazing_angles() {
     }
 }
 
+/// The path tracer's lanes draw the cosine lobe's directions for many hits at once and
+/// finish each sample with `cosine_lobe_sample_from`: that must be `sample`'s answer bit
+/// for bit for every material that `samples_cosine_lobe`, with `wo` above, below and
+/// along the surface, normals of every direction, and grazing draws. Oren–Nayar (whose
+/// weight is not its albedo) and the glossy kinds must not claim the cosine lobe.
+#[test]
+fn cosine_lobe_samples_are_sample_bit_for_bit() {
+    let kinds = [
+        Material::Color(Color::new(0.2, 0.4, 0.8)),
+        Material::Lambert(Color::new(0.9, 0.5, 0.1)),
+        Material::Color(Color::new(0.5, f32::INFINITY, 0.7)),
+        Material::Lambert(Color::new(-0.5, -0.0, 0.7)),
+    ];
+    let bits = |s: Option<isir::materials::BsdfSample>| {
+        s.map(|s| (s.wi.to_array().map(f32::to_bits), s.weight.to_array().map(f32::to_bits), s.pdf.to_bits(), s.delta))
+    };
+    let mut rng = Sampler::from_seed(23);
+    let (mut some, mut none) = (0, 0);
+    for m in &kinds {
+        assert!(m.samples_cosine_lobe(), "{m:?}");
+        for round in 0..20_000 {
+            let mut h = hit();
+            h.normal = if round % 4 == 0 { Vec3::Z } else { square_to_uniform_sphere(rng.next_2d()) };
+            let wo = match round % 3 {
+                0 => h.normal,
+                _ => square_to_uniform_sphere(rng.next_2d()),
+            };
+            let (u_lobe, mut u) = (rng.next_f32(), rng.next_2d());
+            if round % 7 == 0 {
+                u.x = 1.0 - f32::EPSILON / 2.0;
+            }
+            let expected = m.sample(&h, wo, u_lobe, u);
+            let wi = square_to_cosine_hemisphere(h.normal, u);
+            let got = m.cosine_lobe_sample_from(&h, wo, wi, square_to_cosine_hemisphere_pdf(h.normal, wi));
+            assert_eq!(bits(got), bits(expected), "{m:?} n {} wo {wo} u {u}", h.normal);
+            if expected.is_some() {
+                some += 1;
+            } else {
+                none += 1;
+            }
+        }
+    }
+    assert!(some > 30_000 && none > 20_000, "{some} {none}");
+    for m in [
+        Material::Matte { kd: Color::ONE, sigma: 0.6 },
+        Material::Plastic { kd: Color::ONE, ks: Color::ONE, shininess: 64.0, blinn: false },
+        Material::CookTorrance { kd: Color::ONE, f0: Color::ONE, roughness: 0.3, metalness: 0.5 },
+        Material::Mirror,
+        Material::Transparent { ior: 1.3 },
+    ] {
+        assert!(!m.samples_cosine_lobe(), "{m:?}");
+    }
+}
+
 // ---- White furnace ----
 
 /// The albedo `∫ f cos dωi` for `wo`, estimated twice: by the material's own sampling
