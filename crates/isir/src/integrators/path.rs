@@ -9,7 +9,7 @@
 //! direct-lighting integrator's image. Point lights are met by next-event estimation
 //! only. The background is a uniform environment: any ray leaving the scene brings it.
 
-use super::shadow::{DiffuseLobe, QuadBatch, BATCH, BATCH_FROM};
+use super::shadow::{LaneBrdf, QuadBatch, BATCH, BATCH_FROM};
 use super::RayCounters;
 use crate::geometry::Hit;
 use crate::kept::{Kept, Slot};
@@ -394,15 +394,15 @@ fn next_event(
             // Sixteen samples set up at a time (`QuadBatch`), then used in order.
             let mut xi = [Vec2::ZERO; BATCH];
             let mut batch = Kept::take(&QUAD_BATCH, || QuadBatch::EMPTY);
-            let diffuse = DiffuseLobe::of(material);
+            let lanes_brdf = LaneBrdf::of(material);
             for first in (0..n).step_by(BATCH) {
                 let count = (n - first).min(BATCH as u32) as usize;
                 sampler.fill_2d(&mut xi[..count]);
                 batch.fill(light_sampler, &shadow_rays, hit.normal, &xi, count);
-                if let Some(lobe) = diffuse {
+                if let Some(lobe) = lanes_brdf {
                     // The same samples, values and sums as below, computed in lanes.
                     let mut value = [[0f32; BATCH]; 3];
-                    let traced = batch.diffuse_values(lobe, hit.normal, wo, n, count, &mut value);
+                    let traced = batch.brdf_values(lobe, hit.normal, wo, n, count, &mut value);
                     counters.shadow += u64::from(traced.count_ones());
                     let blocked = scene.occluded_lanes(&batch.rays, traced);
                     for j in lanes_of(traced & !blocked) {

@@ -11,7 +11,7 @@
 
 use crate::geometry::{Hit, HitRows};
 use crate::lights::{LightSample, LightSampler};
-use crate::materials::{oren_nayar_lanes, Material};
+use crate::materials::{cook_torrance_lanes, ggx_alpha, oren_nayar_lanes, visible_pdf, Material};
 use crate::math::color::Color;
 use crate::math::ray::{lane_mask, round_away, Ray, RayLanes, ShadowRays};
 use glam::{Vec2, Vec3};
@@ -25,25 +25,29 @@ pub(super) const BATCH: usize = 16;
 /// 19% of the time (tp6-matte-quad, path, Lambert).
 pub(super) const BATCH_FROM: u32 = 4;
 
-/// A BRDF whose [`Material::pdf`] is the cosine lobe's, as [`QuadBatch::diffuse_values`]
-/// takes it: Oren–Nayar's (the course's `MatteMaterial`), or Lambert's of the given albedo
-/// (Lambert, the course's colours).
+/// A material's BRDF and pdf as [`QuadBatch::brdf_values`] computes them in lanes:
+/// Oren–Nayar's (the course's `MatteMaterial`) and Lambert's of the given albedo (Lambert,
+/// the course's colours), whose [`Material::pdf`] is the cosine lobe's, and Cook–Torrance's,
+/// whose pdf mixes in GGX's visible normals.
 #[derive(Clone, Copy, Debug)]
-pub(super) enum DiffuseLobe {
+pub(super) enum LaneBrdf {
     /// [`oren_nayar`](crate::materials::oren_nayar) of colour `kd` and roughness `sigma`.
     OrenNayar { kd: Color, sigma: f32 },
     /// `albedo / π`.
     Lambert(Color),
+    /// [`Material::CookTorrance`]'s fields.
+    CookTorrance { kd: Color, f0: Color, roughness: f32, metalness: f32 },
 }
 
-impl DiffuseLobe {
-    /// The lobe of `material`, `None` for the glossy and delta kinds and for textures
-    /// (whose `Material::eval` lights a NaN direction where Lambert's does not: left to
-    /// the samples one at a time).
-    pub(super) fn of(material: &Material) -> Option<DiffuseLobe> {
+impl LaneBrdf {
+    /// The BRDF of `material`, `None` for Phong's plastic (its powers are libm's `powf`,
+    /// lane by lane), the delta kinds and textures (whose `Material::eval` lights a NaN
+    /// direction where Lambert's does not): left to the samples one at a time.
+    pub(super) fn of(material: &Material) -> Option<LaneBrdf> {
         match *material {
-            Material::Matte { kd, sigma } => Some(DiffuseLobe::OrenNayar { kd, sigma }),
-            Material::Color(c) | Material::Lambert(c) => Some(DiffuseLobe::Lambert(c)),
+            Material::Matte { kd, sigma } => Some(LaneBrdf::OrenNayar { kd, sigma }),
+            Material::Color(c) | Material::Lambert(c) => Some(LaneBrdf::Lambert(c)),
+            Material::CookTorrance { kd, f0, roughness, metalness } => Some(LaneBrdf::CookTorrance { kd, f0, roughness, metalness }),
             _ => None,
         }
     }
@@ -234,66 +238,75 @@ impl QuadBatch {
     }
 
     /// The samples `0..count` of a quad light sampled `n` times per vertex, seen from a hit
-    /// whose material's BRDF is the diffuse `lobe` and whose shading normal is `normal`,
+    /// whose material's BRDF is `lobe` and whose shading normal is `normal`,
     /// the path leaving towards `wo`: the lanes whose sample is worth its shadow ray
     /// (`has_ray` and [`super::path::Path::light_sample_f`] together), and what each brings
     /// when unoccluded ([`super::path::Path::quad_sample_value`]): the operations of
-    /// `Material::eval` (for Oren–Nayar [`oren_nayar_lanes`], the same floats as
-    /// `oren_nayar`), `Material::pdf`, the power heuristic and the sample's value in their
+    /// `Material::eval` ([`oren_nayar_lanes`], [`cook_torrance_lanes`]: the same floats as
+    /// the scalar formulas), `Material::pdf`, the power heuristic and the sample's value in their
     /// order, so the same floats, as SIMD loops (AVX2 where the CPU has it).
     /// PERF: one sample at a time, `oren_nayar` and `Material::pdf` were 53% of the path
     /// tracer on the TP6 rooms with their own materials.
     #[allow(clippy::too_many_arguments)]
-    pub(super) fn diffuse_values(
-        &self,
-        lobe: DiffuseLobe,
-        normal: Vec3,
-        wo: Vec3,
-        n: u32,
-        count: usize,
-        value: &mut [[f32; BATCH]; 3],
-    ) -> u32 {
+    pub(super) fn brdf_values(&self, lobe: LaneBrdf, normal: Vec3, wo: Vec3, n: u32, count: usize, value: &mut [[f32; BATCH]; 3]) -> u32 {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
             #[target_feature(enable = "avx2")]
             #[allow(clippy::too_many_arguments)]
-            fn avx2(b: &QuadBatch, lobe: DiffuseLobe, normal: Vec3, wo: Vec3, n: u32, count: usize, value: &mut [[f32; BATCH]; 3]) -> u32 {
-                b.diffuse_values_portable(lobe, normal, wo, n, count, value)
+            fn avx2(b: &QuadBatch, lobe: LaneBrdf, normal: Vec3, wo: Vec3, n: u32, count: usize, value: &mut [[f32; BATCH]; 3]) -> u32 {
+                b.brdf_values_portable(lobe, normal, wo, n, count, value)
             }
             // SAFETY: the CPU has AVX2, which is all `avx2` is compiled for.
             return unsafe { avx2(self, lobe, normal, wo, n, count, value) };
         }
-        self.diffuse_values_portable(lobe, normal, wo, n, count, value)
+        self.brdf_values_portable(lobe, normal, wo, n, count, value)
     }
 
     #[inline(always)]
     #[allow(clippy::too_many_arguments, clippy::needless_range_loop)] // the loops vectorise
-    fn diffuse_values_portable(
-        &self,
-        lobe: DiffuseLobe,
-        normal: Vec3,
-        wo: Vec3,
-        n: u32,
-        count: usize,
-        value: &mut [[f32; BATCH]; 3],
-    ) -> u32 {
+    fn brdf_values_portable(&self, lobe: LaneBrdf, normal: Vec3, wo: Vec3, n: u32, count: usize, value: &mut [[f32; BATCH]; 3]) -> u32 {
         let (wi, rad) = (&self.wi, &self.radiance);
         let nm = normal.to_array();
         let nf = n as f32;
         // `Vec3::dot`, left to right.
         let nwo = nm[0] * wo.x + nm[1] * wo.y + nm[2] * wo.z;
         let nwi = |j: usize| nm[0] * wi[0][j] + nm[1] * wi[1][j] + nm[2] * wi[2][j];
-        // `Material::eval`: black unless both directions are above the surface.
+        // `Material::eval` into `value`: black unless both directions are above the
+        // surface; and `Material::pdf` into `m_pdf`.
+        let mut m_pdf = [0f32; BATCH];
         match lobe {
             // What `oren_nayar` itself tests (the same dot products): `oren_nayar` alone.
-            DiffuseLobe::OrenNayar { kd, sigma } => oren_nayar_lanes(kd, sigma, normal, wo, &self.wi, value),
-            DiffuseLobe::Lambert(albedo) => {
+            LaneBrdf::OrenNayar { kd, sigma } => {
+                oren_nayar_lanes(kd, sigma, normal, wo, &self.wi, value);
+                for j in 0..BATCH {
+                    m_pdf[j] = cosine_lobe_pdf(nwo, nwi(j));
+                }
+            }
+            LaneBrdf::Lambert(albedo) => {
                 let c = albedo.to_array();
                 for j in 0..BATCH {
                     let above = (nwo > 0.0) & (nwi(j) > 0.0);
                     for k in 0..3 {
                         value[k][j] = if above { c[k] * std::f32::consts::FRAC_1_PI } else { 0.0 };
                     }
+                    m_pdf[j] = cosine_lobe_pdf(nwo, nwi(j));
+                }
+            }
+            LaneBrdf::CookTorrance { kd, f0, roughness, metalness } => {
+                let (mut d, mut c) = ([0f32; BATCH], [0f32; BATCH]);
+                cook_torrance_lanes(kd, f0, roughness, metalness, normal, wo, &self.wi, value, &mut d, &mut c);
+                // `glossy_probability`, and `glossy_pdf` of GGX's visible normals.
+                let (p, alpha) = (metalness.clamp(0.0, 1.0), ggx_alpha(roughness));
+                for j in 0..BATCH {
+                    let nwi = nwi(j);
+                    let below = (nwo <= 0.0) | (nwi <= 0.0);
+                    for k in 0..3 {
+                        value[k][j] = if below { 0.0 } else { value[k][j] };
+                    }
+                    let visible = if c[j] <= 0.0 { 0.0 } else { visible_pdf(alpha, nwo, c[j], d[j]) / (4.0 * c[j]) };
+                    let glossy = if p > 0.0 { visible } else { 0.0 };
+                    let cos_pdf = nwi.max(0.0) * std::f32::consts::FRAC_1_PI;
+                    m_pdf[j] = if below { 0.0 } else { (1.0 - p) * cos_pdf + p * glossy };
                 }
             }
         }
@@ -306,8 +319,7 @@ impl QuadBatch {
             let valid_pdf = !(pdf.is_nan() | (pdf <= 0.0));
             let some_f = !((value[0][j] == 0.0) & (value[1][j] == 0.0) & (value[2][j] == 0.0));
             traced[j] = some_radiance & valid_pdf & some_f & self.has_ray[j];
-            // `Material::pdf` of both lobes: the cosine lobe's.
-            let w = cosine_lobe_weight(nf, pdf, nwo, nwi);
+            let w = mis_weight(nf, pdf, m_pdf[j]);
             let cos = nwi.abs();
             for k in 0..3 {
                 value[k][j] = value[k][j] * rad[k][j] * cos * w;
@@ -489,18 +501,27 @@ fn lane_sample(
     LightSample { direction: at(wi), distance: distance[j], point: at(point), radiance: at(radiance), pdf: pdf[j] }
 }
 
-/// The MIS weight (`quad_weight`: the power heuristic) of a light sample of pdf `pdf`, one
-/// of `nf` per vertex, against a material whose `Material::pdf` is the cosine lobe's
-/// (no glossy lobe: Lambert's, Oren–Nayar's), given `n · wo` and `n · wi`: their
-/// operations in their order, so the same floats, for the SIMD loops.
+/// `Material::pdf` of a material whose pdf is the cosine lobe's (no glossy lobe:
+/// Lambert's, Oren–Nayar's), given `n · wo` and `n · wi`: zero below the surface, else
+/// `(1 - p)·cos/π + p·glossy` with `p` 0; its operations in their order, so the same floats,
+/// for the SIMD loops.
 #[inline(always)]
-fn cosine_lobe_weight(nf: f32, pdf: f32, nwo: f32, nwi: f32) -> f32 {
-    // `Material::pdf`: zero below the surface, else `(1 - p)·cos/π + p·glossy`, `p` 0.
+fn cosine_lobe_pdf(nwo: f32, nwi: f32) -> f32 {
     let (p, glossy) = (0.0f32, 0.0f32);
     let cos_pdf = nwi.max(0.0) * std::f32::consts::FRAC_1_PI;
     let below = (nwo <= 0.0) | (nwi <= 0.0);
-    let m_pdf = if below { 0.0 } else { (1.0 - p) * cos_pdf + p * glossy };
-    // `power_heuristic(nf, pdf, 1, m_pdf)`.
+    if below {
+        0.0
+    } else {
+        (1.0 - p) * cos_pdf + p * glossy
+    }
+}
+
+/// The MIS weight (`quad_weight`: `power_heuristic(nf, pdf, 1, m_pdf)`) of a light sample
+/// of pdf `pdf`, one of `nf` per vertex, against the material's pdf `m_pdf`: its
+/// operations in their order, so the same floats, for the SIMD loops.
+#[inline(always)]
+fn mis_weight(nf: f32, pdf: f32, m_pdf: f32) -> f32 {
     let (a, b) = (nf * pdf, 1.0 * m_pdf);
     let (a2, b2) = (a * a, b * b);
     if a.is_infinite() {
@@ -831,7 +852,7 @@ impl LightLanes {
             }
             let some_f = !((f[0] == 0.0) & (f[1] == 0.0) & (f[2] == 0.0));
             traced[j] = some_radiance & valid_pdf & some_f & self.has_ray[j];
-            let w = if WEIGHTED { cosine_lobe_weight(nf, pdf, nwo, nwi) } else { 1.0 };
+            let w = if WEIGHTED { mis_weight(nf, pdf, cosine_lobe_pdf(nwo, nwi)) } else { 1.0 };
             // `unoccluded`: f · L · |wi · n| · w (`wi · n` is `nwi`, bit for bit: the same
             // products, commuted, summed in the same order).
             let cos = nwi.abs();
@@ -1217,15 +1238,17 @@ mod tests {
         assert!(lit > 10_000 && unlit > 5_000, "{lit} {unlit}");
     }
 
-    /// A batch's values for the path tracer at a diffuse vertex (Oren–Nayar, Lambert, the
-    /// course's colours) are `next_event`'s, sample by sample, bit for bit, on the AVX2
+    /// A batch's values for the path tracer at an Oren–Nayar, Lambert, colour or
+    /// Cook–Torrance vertex are `next_event`'s, sample by sample, bit for bit, on the AVX2
     /// path (where this CPU has it) and the portable one: whether each sample is worth its
     /// shadow ray (`has_ray` and `Path::light_sample_f`) and what it brings unoccluded
     /// (`Path::quad_sample_value`), for counts of one to sixteen, path directions above
     /// and below the surface, colours whose products with zero are not `+0`, and the
-    /// lanes past the count left out. The glossy and delta kinds have no diffuse lobe.
+    /// lanes past the count left out, Cook–Torrance of every metalness (0, between, 1,
+    /// past both ends) and roughness down to 0. Plastic, the delta kinds and textures stay
+    /// one sample at a time.
     #[test]
-    fn diffuse_values_are_next_events_one_sample_at_a_time() {
+    fn brdf_values_are_next_events_one_sample_at_a_time() {
         use crate::integrators::path::Path;
         let materials = [
             Material::Matte { kd: Vec3::new(0.5, 0.6, 0.7), sigma: 0.6 },
@@ -1237,14 +1260,19 @@ mod tests {
             Material::Lambert(Vec3::new(-0.5, -0.0, 0.7)),
             Material::Matte { kd: Vec3::new(0.5, f32::INFINITY, 0.7), sigma: 0.3 },
             Material::Color(Vec3::new(0.5, f32::INFINITY, 0.7)),
+            Material::CookTorrance { kd: Vec3::new(0.5, 0.6, 0.7), f0: Vec3::new(1.0, 0.85, 0.57), roughness: 0.3, metalness: 0.5 },
+            Material::CookTorrance { kd: Vec3::ONE, f0: Vec3::new(1.0, 0.85, 0.57), roughness: 0.3, metalness: 1.0 },
+            Material::CookTorrance { kd: Vec3::ONE, f0: Vec3::splat(0.04), roughness: 0.0, metalness: 0.0 },
+            Material::CookTorrance { kd: Vec3::ONE, f0: Vec3::splat(0.9), roughness: 1.0, metalness: 1.5 },
+            Material::CookTorrance { kd: Vec3::ONE, f0: Vec3::splat(0.9), roughness: 0.05, metalness: -0.5 },
         ];
         for m in [
             Material::Plastic { kd: Vec3::ONE, ks: Vec3::ONE, shininess: 64.0, blinn: false },
-            Material::CookTorrance { kd: Vec3::ONE, f0: Vec3::ONE, roughness: 0.3, metalness: 0.5 },
+            Material::Plastic { kd: Vec3::ONE, ks: Vec3::ONE, shininess: 64.0, blinn: true },
             Material::Mirror,
             Material::Transparent { ior: 1.3 },
         ] {
-            assert!(DiffuseLobe::of(&m).is_none(), "{m:?}");
+            assert!(LaneBrdf::of(&m).is_none(), "{m:?}");
         }
         let light = Light::Quad {
             corner: Vec3::new(-1.0, 3.0, -1.0),
@@ -1282,9 +1310,9 @@ mod tests {
             let n = [4, 16, 23][round % 3];
             let batch = QuadBatch::new(&sampler, &ShadowRays::new(p, Vec3::ZERO, ng), normal, &xi, count);
             let (mut fast, mut portable) = ([[f32::NAN; BATCH]; 3], [[f32::NAN; BATCH]; 3]);
-            let lobe = DiffuseLobe::of(&material).expect("a diffuse material");
-            let fast_traced = batch.diffuse_values(lobe, normal, wo, n, count, &mut fast);
-            let portable_traced = batch.diffuse_values_portable(lobe, normal, wo, n, count, &mut portable);
+            let lobe = LaneBrdf::of(&material).expect("a material of the lanes");
+            let fast_traced = batch.brdf_values(lobe, normal, wo, n, count, &mut fast);
+            let portable_traced = batch.brdf_values_portable(lobe, normal, wo, n, count, &mut portable);
             assert_eq!(fast_traced, portable_traced);
             for j in 0..BATCH {
                 let ls = batch.sample(j);

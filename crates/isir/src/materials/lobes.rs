@@ -166,7 +166,8 @@ pub fn cook_torrance_spec(f0: Color, roughness: f32, n: Vec3, wo: Vec3, wi: Vec3
 /// m·cook_torrance_spec(f0, roughness)` (`m` the metalness clamped to `[0, 1]`, what
 /// `Material::CookTorrance`'s BRDF is), for `N` incoming directions at once (`wi[axis][j]`)
 /// into `out[axis][j]`, with the half vector's `GGX D` of each lane into `d[j]` (zero where
-/// `n · h <= 0`, for the pdf of visible normals): the same operations in the same order on
+/// `n · h <= 0`) and `h · wo` into `c[j]`, for the pdf of visible normals
+/// ([`visible_pdf`]): the same operations in the same order on
 /// each lane, so the same floats, as straight-line loops the compiler vectorises (the
 /// caller decides for which instruction set).
 #[inline(always)]
@@ -181,6 +182,7 @@ pub fn cook_torrance_lanes<const N: usize>(
     wi: &[[f32; N]; 3],
     out: &mut [[f32; N]; 3],
     d: &mut [f32; N],
+    c: &mut [f32; N],
 ) {
     // The diffuse part first, into `out`.
     oren_nayar_lanes(kd, roughness, n, wo, wi, out);
@@ -205,8 +207,8 @@ pub fn cook_torrance_lanes<const N: usize>(
         d[j] = if cos_h <= 0.0 { 0.0 } else { a2 / (PI * t * t) };
         let g = g_o * schlick_ggx(roughness, cos_i);
         // `schlick_fresnel(f0, h · wo)`'s power.
-        let c = h[0] * wo.x + h[1] * wo.y + h[2] * wo.z;
-        let p5 = (1.0 - c.clamp(0.0, 1.0)).powi(5);
+        c[j] = h[0] * wo.x + h[1] * wo.y + h[2] * wo.z;
+        let p5 = (1.0 - c[j].clamp(0.0, 1.0)).powi(5);
         let q = d[j] * g / (4.0 * cos_o.max(MIN_COS) * cos_i.max(MIN_COS));
         let lit = !(cos_i <= 0.0 || cos_o <= 0.0);
         for k in 0..3 {
@@ -214,6 +216,13 @@ pub fn cook_torrance_lanes<const N: usize>(
             out[k][j] = (1.0 - m) * out[k][j] + m * spec;
         }
     }
+}
+
+/// GGX's `α` of a roughness: `roughness²`, at least [`MIN_ALPHA`].
+#[inline(always)]
+#[must_use]
+pub fn ggx_alpha(roughness: f32) -> f32 {
+    (roughness * roughness).max(MIN_ALPHA)
 }
 
 /// The local frame of `n`: `(t, b, n)`, right-handed.
@@ -250,11 +259,18 @@ pub fn sample_ggx_visible(alpha: f32, n: Vec3, wo: Vec3, u: Vec2) -> Vec3 {
 /// The solid-angle pdf of the half vector `h` under [`sample_ggx_visible`].
 #[must_use]
 pub fn ggx_visible_pdf(alpha: f32, n: Vec3, wo: Vec3, h: Vec3) -> f32 {
-    let cos_o = n.dot(wo);
+    visible_pdf(alpha, n.dot(wo), wo.dot(h), ggx_d(alpha, n.dot(h)))
+}
+
+/// [`ggx_visible_pdf`] from `cos_o = n · wo`, `wo_h = wo · h` and `d = ggx_d(alpha, n · h)`
+/// (what [`cook_torrance_lanes`] gives per lane).
+#[inline(always)]
+#[must_use]
+pub fn visible_pdf(alpha: f32, cos_o: f32, wo_h: f32, d: f32) -> f32 {
     if cos_o <= 0.0 {
         return 0.0;
     }
-    smith_g1(alpha, cos_o) * wo.dot(h).max(0.0) * ggx_d(alpha, n.dot(h)) / cos_o
+    smith_g1(alpha, cos_o) * wo_h.max(0.0) * d / cos_o
 }
 
 /// A direction about `axis` with density `(s+1)/(2π)·cos^s` (the Phong lobe).
@@ -338,7 +354,7 @@ mod tests {
     }
 
     /// `cook_torrance_lanes` gives `Material::CookTorrance`'s BRDF bits lane by lane, and
-    /// `ggx_d` of each lane's half vector, on directions meeting its cases (below the
+    /// `ggx_d` and `wo · h` of each lane's half vector, on directions meeting its cases (below the
     /// surface, along the normal, opposite `wo`, grazing, NaN), every metalness kind
     /// (0, between, 1, past both ends) and roughness down to 0.
     #[test]
@@ -377,8 +393,8 @@ mod tests {
             // `Material::shade`'s BRDF, the one the lanes are, with the `wo` it computes.
             let ray = crate::math::ray::Ray::new(wo * 3.0, -wo);
             let wo = -ray.direction.normalize_or_zero();
-            let (mut out, mut d) = ([[0f32; N]; 3], [0f32; N]);
-            cook_torrance_lanes(kd, f0, roughness, metalness, n, wo, &wi, &mut out, &mut d);
+            let (mut out, mut d, mut c) = ([[0f32; N]; 3], [0f32; N], [0f32; N]);
+            cook_torrance_lanes(kd, f0, roughness, metalness, n, wo, &wi, &mut out, &mut d, &mut c);
             for j in 0..N {
                 let w = Vec3::new(wi[0][j], wi[1][j], wi[2][j]);
                 let hit = crate::geometry::Hit { normal: n, ..crate::geometry::Hit::ZERO };
@@ -387,6 +403,7 @@ mod tests {
                 let h = (w + wo).normalize_or_zero();
                 let alpha = (roughness * roughness).max(MIN_ALPHA);
                 assert_eq!(d[j].to_bits(), ggx_d(alpha, n.dot(h)).to_bits(), "round {round}, lane {j}");
+                assert_eq!(c[j].to_bits(), wo.dot(h).to_bits(), "round {round}, lane {j}");
                 for k in 0..3 {
                     assert_eq!(
                         out[k][j].to_bits(),

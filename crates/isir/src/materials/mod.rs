@@ -21,8 +21,8 @@ mod texture;
 pub use texture::{srgb_to_linear, Texture, MAX_TEXELS};
 
 pub use lobes::{
-    cook_torrance_lanes, cook_torrance_spec, ggx_d, ggx_visible_pdf, oren_nayar, oren_nayar_lanes, phong_cos, phong_lobe_pdf, plastic,
-    sample_ggx_visible, sample_phong_lobe, schlick_fresnel, schlick_ggx,
+    cook_torrance_lanes, cook_torrance_spec, ggx_alpha, ggx_d, ggx_visible_pdf, oren_nayar, oren_nayar_lanes, phong_cos, phong_lobe_pdf,
+    plastic, sample_ggx_visible, sample_phong_lobe, schlick_fresnel, schlick_ggx, visible_pdf,
 };
 
 use crate::geometry::Hit;
@@ -188,8 +188,8 @@ impl Material {
             return;
         }
         if let Material::CookTorrance { kd, f0, roughness, metalness } = *self {
-            let mut d = [0f32; N];
-            cook_torrance_lanes(kd, f0, roughness, metalness, hit.normal, wo, wi, out, &mut d);
+            let (mut d, mut c) = ([0f32; N], [0f32; N]);
+            cook_torrance_lanes(kd, f0, roughness, metalness, hit.normal, wo, wi, out, &mut d, &mut c);
             return;
         }
         // `shade_from` of the materials left: their BRDF, `wo` computed once.
