@@ -168,10 +168,11 @@ impl Material {
     }
 
     /// [`Material::shade`] for `N` light samples at once, by their directions
-    /// (`wi[axis][j]`), into `out[axis][j]`: the same floats. Oren–Nayar and Cook–Torrance
-    /// in straight-line loops the compiler vectorises (for the instruction set of the
-    /// caller), materials that do not depend on the direction once, Phong one sample after
-    /// another (its power is libm's `powf`).
+    /// (`wi[axis][j]`), into `out[axis][j]`: the same floats. Oren–Nayar in straight-line
+    /// loops the compiler vectorises (for the instruction set of the caller), materials
+    /// that do not depend on the direction once, Phong and Cook–Torrance one sample after
+    /// another (a quad light's batch takes Cook–Torrance's lanes itself,
+    /// `QuadBatch::shade_into`).
     #[inline(always)]
     pub fn shade_lanes<const N: usize>(&self, ray: &Ray, hit: &Hit, wi: &[[f32; N]; 3], out: &mut [[f32; N]; 3]) {
         if let Some(c) = self.shade_any_direction(hit) {
@@ -185,11 +186,6 @@ impl Material {
         let wo = -ray.direction.normalize_or_zero();
         if let Material::Matte { kd, sigma } = *self {
             oren_nayar_lanes(kd, sigma, hit.normal, wo, wi, out);
-            return;
-        }
-        if let Material::CookTorrance { kd, f0, roughness, metalness } = *self {
-            let (mut d, mut c) = ([0f32; N], [0f32; N]);
-            cook_torrance_lanes(kd, f0, roughness, metalness, hit.normal, wo, wi, out, &mut d, &mut c);
             return;
         }
         // `shade_from` of the materials left: their BRDF, `wo` computed once.
