@@ -218,7 +218,7 @@ pub fn cook_torrance_lanes<const N: usize>(
     }
 }
 
-/// GGX's `α` of a roughness: `roughness²`, at least [`MIN_ALPHA`].
+/// GGX's `α` of a roughness: `roughness²`, at least `MIN_ALPHA` (10⁻³).
 #[inline(always)]
 #[must_use]
 pub fn ggx_alpha(roughness: f32) -> f32 {
