@@ -9,7 +9,7 @@
 //! direct-lighting integrator's image. Point lights are met by next-event estimation
 //! only. The background is a uniform environment: any ray leaving the scene brings it.
 
-use super::shadow::{LaneBrdf, QuadBatch, BATCH, BATCH_FROM};
+use super::shadow::{LaneBrdf, QuadBatch, VertexSamples, BATCH, BATCH_FROM};
 use super::RayCounters;
 use crate::geometry::Hit;
 use crate::kept::{Kept, Slot};
@@ -402,7 +402,7 @@ fn next_event(
                 if let Some(lobe) = lanes_brdf {
                     // The same samples, values and sums as below, computed in lanes.
                     let mut value = [[0f32; BATCH]; 3];
-                    let traced = batch.brdf_values(lobe, hit.normal, wo, n, count, &mut value);
+                    let traced = batch.brdf_values(VertexSamples { lobe, normal: hit.normal, wo, n, count }, &mut value);
                     counters.shadow += u64::from(traced.count_ones());
                     let blocked = scene.occluded_lanes(&batch.rays, traced);
                     for j in lanes_of(traced & !blocked) {

@@ -53,6 +53,18 @@ impl LaneBrdf {
     }
 }
 
+/// What [`QuadBatch::brdf_values`] needs of a path's vertex: its material's BRDF, its
+/// shading normal, the direction the path leaves towards (`wo`), the samples of the light
+/// per vertex (`n`) and how many of the batch's lanes are samples (`count`).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct VertexSamples {
+    pub(super) lobe: LaneBrdf,
+    pub(super) normal: Vec3,
+    pub(super) wo: Vec3,
+    pub(super) n: u32,
+    pub(super) count: usize,
+}
+
 /// Up to [`BATCH`] samples of a quad light from one hit, and their shadow rays.
 pub(super) struct QuadBatch {
     point: [[f32; BATCH]; 3],
@@ -237,9 +249,9 @@ impl QuadBatch {
         lane_sample(j, &self.wi, &self.distance, &self.point, &self.radiance, &self.pdf)
     }
 
-    /// The samples `0..count` of a quad light sampled `n` times per vertex, seen from a hit
-    /// whose material's BRDF is `lobe` and whose shading normal is `normal`,
-    /// the path leaving towards `wo`: the lanes whose sample is worth its shadow ray
+    /// The samples `0..v.count` of a quad light sampled `v.n` times per vertex, seen from a
+    /// hit whose material's BRDF is `v.lobe` and whose shading normal is `v.normal`, the
+    /// path leaving towards `v.wo`, into `value`: the lanes whose sample is worth its shadow ray
     /// (`has_ray` and [`super::path::Path::light_sample_f`] together), and what each brings
     /// when unoccluded ([`super::path::Path::quad_sample_value`]): the operations of
     /// `Material::eval` ([`oren_nayar_lanes`], [`cook_torrance_lanes`]: the same floats as
@@ -247,55 +259,42 @@ impl QuadBatch {
     /// order, so the same floats, as SIMD loops (AVX2 where the CPU has it).
     /// PERF: one sample at a time, `oren_nayar` and `Material::pdf` were 53% of the path
     /// tracer on the TP6 rooms with their own materials.
-    #[allow(clippy::too_many_arguments)]
-    pub(super) fn brdf_values(&self, lobe: LaneBrdf, normal: Vec3, wo: Vec3, n: u32, count: usize, value: &mut [[f32; BATCH]; 3]) -> u32 {
-        if let LaneBrdf::CookTorrance { .. } = lobe {
-            return self.glossy_values(lobe, normal, wo, n, count, value);
+    pub(super) fn brdf_values(&self, v: VertexSamples, value: &mut [[f32; BATCH]; 3]) -> u32 {
+        if let LaneBrdf::CookTorrance { .. } = v.lobe {
+            return self.glossy_values(v, value);
         }
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
-            #[target_feature(enable = "avx2")]
-            #[allow(clippy::too_many_arguments)]
-            fn avx2(b: &QuadBatch, lobe: LaneBrdf, normal: Vec3, wo: Vec3, n: u32, count: usize, value: &mut [[f32; BATCH]; 3]) -> u32 {
-                b.brdf_values_portable::<false>(lobe, normal, wo, n, count, value)
-            }
-            // SAFETY: the CPU has AVX2, which is all `avx2` is compiled for.
-            return unsafe { avx2(self, lobe, normal, wo, n, count, value) };
-        }
-        self.brdf_values_portable::<false>(lobe, normal, wo, n, count, value)
+        self.brdf_values_dispatch::<false>(v, value)
     }
 
     /// [`Self::brdf_values`] for Cook–Torrance. PERF: a function of its own: compiled into
     /// the same function as the diffuse lobes', it made the path tracer on tp6-glass-quad
     /// (Oren–Nayar) 1.053 of its time.
     #[inline(never)]
-    fn glossy_values(&self, lobe: LaneBrdf, normal: Vec3, wo: Vec3, n: u32, count: usize, value: &mut [[f32; BATCH]; 3]) -> u32 {
+    fn glossy_values(&self, v: VertexSamples, value: &mut [[f32; BATCH]; 3]) -> u32 {
+        self.brdf_values_dispatch::<true>(v, value)
+    }
+
+    /// [`Self::brdf_values_portable`] compiled for AVX2 where the CPU has it.
+    #[inline(always)]
+    fn brdf_values_dispatch<const GLOSSY: bool>(&self, v: VertexSamples, value: &mut [[f32; BATCH]; 3]) -> u32 {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
             #[target_feature(enable = "avx2")]
-            #[allow(clippy::too_many_arguments)]
-            fn avx2(b: &QuadBatch, lobe: LaneBrdf, normal: Vec3, wo: Vec3, n: u32, count: usize, value: &mut [[f32; BATCH]; 3]) -> u32 {
-                b.brdf_values_portable::<true>(lobe, normal, wo, n, count, value)
+            fn avx2<const GLOSSY: bool>(b: &QuadBatch, v: VertexSamples, value: &mut [[f32; BATCH]; 3]) -> u32 {
+                b.brdf_values_portable::<GLOSSY>(v, value)
             }
             // SAFETY: the CPU has AVX2, which is all `avx2` is compiled for.
-            return unsafe { avx2(self, lobe, normal, wo, n, count, value) };
+            return unsafe { avx2::<GLOSSY>(self, v, value) };
         }
-        self.brdf_values_portable::<true>(lobe, normal, wo, n, count, value)
+        self.brdf_values_portable::<GLOSSY>(v, value)
     }
 
     /// [`Self::brdf_values`]' loops: `GLOSSY` for Cook–Torrance (whose pdf is computed
     /// first, in lanes), else the lobes whose pdf is the cosine lobe's.
     #[inline(always)]
-    #[allow(clippy::too_many_arguments, clippy::needless_range_loop)] // the loops vectorise
-    fn brdf_values_portable<const GLOSSY: bool>(
-        &self,
-        lobe: LaneBrdf,
-        normal: Vec3,
-        wo: Vec3,
-        n: u32,
-        count: usize,
-        value: &mut [[f32; BATCH]; 3],
-    ) -> u32 {
+    #[allow(clippy::needless_range_loop)] // the loops vectorise
+    fn brdf_values_portable<const GLOSSY: bool>(&self, v: VertexSamples, value: &mut [[f32; BATCH]; 3]) -> u32 {
+        let VertexSamples { lobe, normal, wo, n, count } = v;
         let (wi, rad) = (&self.wi, &self.radiance);
         let nm = normal.to_array();
         let nf = n as f32;
@@ -389,44 +388,24 @@ impl QuadBatch {
     /// materials' `shade_lanes`, it made tp6-glass-quad (Oren–Nayar) 1.018 of its time.
     #[inline(never)]
     fn cook_torrance_into(&self, material: &Material, ray: &Ray, hit: &Hit, out: &mut [[f32; BATCH]; 3]) {
-        let Material::CookTorrance { kd, f0, roughness, metalness } = *material else { unreachable!("a Cook–Torrance material") };
         let wo = -ray.direction.normalize_or_zero();
         #[inline(always)]
-        #[allow(clippy::too_many_arguments)]
-        fn portable(
-            wi: &[[f32; BATCH]; 3],
-            kd: Color,
-            f0: Color,
-            roughness: f32,
-            metalness: f32,
-            n: Vec3,
-            wo: Vec3,
-            out: &mut [[f32; BATCH]; 3],
-        ) {
+        fn portable(b: &QuadBatch, material: &Material, n: Vec3, wo: Vec3, out: &mut [[f32; BATCH]; 3]) {
+            let Material::CookTorrance { kd, f0, roughness, metalness } = *material else { unreachable!("a Cook–Torrance material") };
             let (mut d, mut c) = ([0f32; BATCH], [0f32; BATCH]);
-            cook_torrance_lanes(kd, f0, roughness, metalness, n, wo, wi, out, &mut d, &mut c);
+            cook_torrance_lanes(kd, f0, roughness, metalness, n, wo, &b.wi, out, &mut d, &mut c);
         }
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
             #[target_feature(enable = "avx2")]
-            #[allow(clippy::too_many_arguments)]
-            fn avx2(
-                wi: &[[f32; BATCH]; 3],
-                kd: Color,
-                f0: Color,
-                roughness: f32,
-                metalness: f32,
-                n: Vec3,
-                wo: Vec3,
-                out: &mut [[f32; BATCH]; 3],
-            ) {
-                portable(wi, kd, f0, roughness, metalness, n, wo, out);
+            fn avx2(b: &QuadBatch, material: &Material, n: Vec3, wo: Vec3, out: &mut [[f32; BATCH]; 3]) {
+                portable(b, material, n, wo, out);
             }
             // SAFETY: the CPU has AVX2, which is all `avx2` is compiled for.
-            unsafe { avx2(&self.wi, kd, f0, roughness, metalness, hit.normal, wo, out) };
+            unsafe { avx2(self, material, hit.normal, wo, out) };
             return;
         }
-        portable(&self.wi, kd, f0, roughness, metalness, hit.normal, wo, out);
+        portable(self, material, hit.normal, wo, out);
     }
 
     /// Adds to `sum`, in sample order, `shade · radiance · cos` of the samples among the
@@ -1216,6 +1195,20 @@ mod tests {
 
     /// A hit at `point` (error bound `point_error`) with shading normal `normal` and
     /// geometric normal `ng`.
+    /// A hit at a random point below the test lights, with a random geometric normal and
+    /// a shading normal straight up, straight down or near the geometric one (by `round`):
+    /// the hit, its point, shading normal and geometric normal.
+    fn random_hit(round: usize, r: &mut impl FnMut() -> f32) -> (Hit, Vec3, Vec3, Vec3) {
+        let ng = Vec3::new(r(), r(), r()).normalize();
+        let normal = match round % 5 {
+            0 => Vec3::Y,
+            1 => -Vec3::Y,
+            _ => (ng + 0.2 * Vec3::new(r(), r(), r())).normalize(),
+        };
+        let p = Vec3::new(r(), r() * 0.5, r());
+        (test_hit(p, Vec3::ZERO, normal, ng), p, normal, ng)
+    }
+
     fn test_hit(point: Vec3, point_error: Vec3, normal: Vec3, ng: Vec3) -> Hit {
         Hit { t: 1.0, point, point_error, normal, geometric_normal: ng, front_face: true, ..Hit::ZERO }
     }
@@ -1252,14 +1245,7 @@ mod tests {
         let (mut lit, mut unlit) = (0, 0);
         for round in 0..3000 {
             let mut r = || rng.next_f32() * 8.0 - 4.0;
-            let ng = Vec3::new(r(), r(), r()).normalize();
-            let normal = match round % 5 {
-                0 => Vec3::Y,
-                1 => -Vec3::Y,
-                _ => (ng + 0.2 * Vec3::new(r(), r(), r())).normalize(),
-            };
-            let p = Vec3::new(r(), r() * 0.5, r());
-            let hit = test_hit(p, Vec3::ZERO, normal, ng);
+            let (hit, p, normal, ng) = random_hit(round, &mut r);
             // The ray arrives from above, below, along the normal, or is long.
             let d = match round % 4 {
                 0 => -normal * 3.0,
@@ -1365,14 +1351,7 @@ mod tests {
             let material = materials[round % materials.len()].clone();
             let scene = Scene::new(Vec::new(), vec![material.clone()], vec![light.clone()], Color::ZERO);
             let mut r = || rng.next_f32() * 8.0 - 4.0;
-            let ng = Vec3::new(r(), r(), r()).normalize();
-            let normal = match round % 5 {
-                0 => Vec3::Y,
-                1 => -Vec3::Y,
-                _ => (ng + 0.2 * Vec3::new(r(), r(), r())).normalize(),
-            };
-            let p = Vec3::new(r(), r() * 0.5, r());
-            let hit = test_hit(p, Vec3::ZERO, normal, ng);
+            let (hit, p, normal, ng) = random_hit(round, &mut r);
             // The path leaves along the normal, above the surface, or below it.
             let wo = match round % 3 {
                 0 => normal,
@@ -1387,11 +1366,12 @@ mod tests {
             let batch = QuadBatch::new(&sampler, &ShadowRays::new(p, Vec3::ZERO, ng), normal, &xi, count);
             let (mut fast, mut portable) = ([[f32::NAN; BATCH]; 3], [[f32::NAN; BATCH]; 3]);
             let lobe = LaneBrdf::of(&material).expect("a material of the lanes");
-            let fast_traced = batch.brdf_values(lobe, normal, wo, n, count, &mut fast);
+            let v = VertexSamples { lobe, normal, wo, n, count };
+            let fast_traced = batch.brdf_values(v, &mut fast);
             let portable_traced = if matches!(lobe, LaneBrdf::CookTorrance { .. }) {
-                batch.brdf_values_portable::<true>(lobe, normal, wo, n, count, &mut portable)
+                batch.brdf_values_portable::<true>(v, &mut portable)
             } else {
-                batch.brdf_values_portable::<false>(lobe, normal, wo, n, count, &mut portable)
+                batch.brdf_values_portable::<false>(v, &mut portable)
             };
             assert_eq!(fast_traced, portable_traced);
             for j in 0..BATCH {

@@ -298,6 +298,26 @@ mod tests {
     use super::*;
     use crate::math::sampling::Sampler;
 
+    /// Lane `j` of `out` holds `expected`'s bits.
+    fn assert_lane_is<const N: usize>(out: &[[f32; N]; 3], j: usize, expected: Color, round: usize) {
+        for k in 0..3 {
+            assert_eq!(out[k][j].to_bits(), expected[k].to_bits(), "round {round}, lane {j}: {} against {}", out[k][j], expected[k]);
+        }
+    }
+
+    /// `N` directions as lanes (`[axis][j]`): `special` first, then random unit vectors
+    /// (`n` where one is too short to normalise).
+    fn directions<const N: usize>(special: &[Vec3], n: Vec3, r: &mut impl FnMut() -> f32) -> [[f32; N]; 3] {
+        let mut wi = [[0f32; N]; 3];
+        for j in 0..N {
+            let w = special.get(j).copied().unwrap_or_else(|| Vec3::new(r(), r(), r()).normalize_or(n));
+            for (k, row) in wi.iter_mut().enumerate() {
+                row[j] = w[k];
+            }
+        }
+        wi
+    }
+
     /// `oren_nayar_lanes` gives `oren_nayar`'s bits lane by lane, unlit lanes `+0`, on
     /// directions chosen to meet its cases: `cos θi` below, equal to and above `cos θo`,
     /// above 1, below the surface, and NaN.
@@ -315,20 +335,7 @@ mod tests {
                 1 => (n * 1.0000001).normalize_or(n) * 1.0000002,
                 _ => Vec3::new(r(), r(), r()).normalize_or(n),
             };
-            let mut wi = [[0f32; N]; 3];
-            for j in 0..N {
-                let w = match j {
-                    0 => wo,
-                    1 => n,
-                    2 => Vec3::splat(f32::NAN),
-                    3 => (wo - 2.0 * n * n.dot(wo)).normalize_or(n),
-                    4 => n * 1.0000002,
-                    _ => Vec3::new(r(), r(), r()).normalize_or(n),
-                };
-                for k in 0..3 {
-                    wi[k][j] = w[k];
-                }
-            }
+            let wi = directions::<N>(&[wo, n, Vec3::splat(f32::NAN), (wo - 2.0 * n * n.dot(wo)).normalize_or(n), n * 1.0000002], n, &mut r);
             let (kd, sigma) = (Color::new(r().abs(), 0.5, r().abs() * 3.0), [0.0, 0.3, 0.6, 1.5][round % 4]);
             let mut out = [[0f32; N]; 3];
             oren_nayar_lanes(kd, sigma, n, wo, &wi, &mut out);
@@ -339,15 +346,7 @@ mod tests {
                 if ci > 0.0 && co > 0.0 {
                     (below, above, equal) = (below + usize::from(ci < co), above + usize::from(ci > co), equal + usize::from(ci == co));
                 }
-                for k in 0..3 {
-                    assert_eq!(
-                        out[k][j].to_bits(),
-                        expected[k].to_bits(),
-                        "round {round}, lane {j}: {} against {}",
-                        out[k][j],
-                        expected[k]
-                    );
-                }
+                assert_lane_is(&out, j, expected, round);
             }
         }
         assert!(below > 5_000 && above > 5_000 && equal > 500, "{below} {above} {equal}");
@@ -371,20 +370,7 @@ mod tests {
                 1 => -n,
                 _ => Vec3::new(r(), r(), r()).normalize_or(n),
             };
-            let mut wi = [[0f32; N]; 3];
-            for j in 0..N {
-                let w = match j {
-                    0 => wo,
-                    1 => n,
-                    2 => Vec3::splat(f32::NAN),
-                    3 => -wo,
-                    4 => (wo - 2.0 * n * n.dot(wo)).normalize_or(n),
-                    _ => Vec3::new(r(), r(), r()).normalize_or(n),
-                };
-                for k in 0..3 {
-                    wi[k][j] = w[k];
-                }
-            }
+            let wi = directions::<N>(&[wo, n, Vec3::splat(f32::NAN), -wo, (wo - 2.0 * n * n.dot(wo)).normalize_or(n)], n, &mut r);
             let kd = Color::new(r().abs(), 0.5, r().abs() * 3.0);
             let f0 = Color::new(1.0, 0.85 * r().abs(), 0.57);
             let roughness = [0.0, 0.01, 0.3, 0.7, 1.0][round % 5];
@@ -404,15 +390,7 @@ mod tests {
                 let alpha = (roughness * roughness).max(MIN_ALPHA);
                 assert_eq!(d[j].to_bits(), ggx_d(alpha, n.dot(h)).to_bits(), "round {round}, lane {j}");
                 assert_eq!(c[j].to_bits(), wo.dot(h).to_bits(), "round {round}, lane {j}");
-                for k in 0..3 {
-                    assert_eq!(
-                        out[k][j].to_bits(),
-                        expected[k].to_bits(),
-                        "round {round}, lane {j}: {} against {}",
-                        out[k][j],
-                        expected[k]
-                    );
-                }
+                assert_lane_is(&out, j, expected, round);
                 if expected == Color::ZERO {
                     unlit += 1;
                 } else {
