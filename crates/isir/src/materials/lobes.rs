@@ -188,10 +188,10 @@ pub fn cook_torrance_lanes<const N: usize>(
     oren_nayar_lanes(kd, roughness, n, wo, wi, out);
     let m = metalness.clamp(0.0, 1.0);
     let cos_o = n.dot(wo);
-    let alpha = (roughness * roughness).max(MIN_ALPHA);
+    let alpha = ggx_alpha(roughness);
     let a2 = alpha * alpha;
     let g_o = schlick_ggx(roughness, cos_o);
-    let (f0, one_minus_f0) = (f0.to_array(), (Color::ONE - Color::from_array(f0.to_array())).to_array());
+    let (f0, one_minus_f0) = (f0.to_array(), (Color::ONE - f0).to_array());
     for j in 0..N {
         let (x, y, z) = (wi[0][j], wi[1][j], wi[2][j]);
         let cos_i = n.x * x + n.y * y + n.z * z;
