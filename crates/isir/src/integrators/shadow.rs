@@ -329,8 +329,7 @@ impl QuadBatch {
                     }
                     let visible = if c[j] <= 0.0 { 0.0 } else { visible_pdf(alpha, nwo, c[j], d[j]) / (4.0 * c[j]) };
                     let glossy = if p > 0.0 { visible } else { 0.0 };
-                    let cos_pdf = nwi.max(0.0) * std::f32::consts::FRAC_1_PI;
-                    m_pdf[j] = if below { 0.0 } else { (1.0 - p) * cos_pdf + p * glossy };
+                    m_pdf[j] = mixture_pdf(nwo, nwi, p, glossy);
                 }
             }
             _ => unreachable!("brdf_values sends Cook–Torrance to glossy_values"),
@@ -556,13 +555,11 @@ fn lane_sample(
     LightSample { direction: at(wi), distance: distance[j], point: at(point), radiance: at(radiance), pdf: pdf[j] }
 }
 
-/// `Material::pdf` of a material whose pdf is the cosine lobe's (no glossy lobe:
-/// Lambert's, Oren–Nayar's), given `n · wo` and `n · wi`: zero below the surface, else
-/// `(1 - p)·cos/π + p·glossy` with `p` 0; its operations in their order, so the same floats,
-/// for the SIMD loops.
+/// `Material::pdf` given `n · wo`, `n · wi`, the probability `p` of the glossy lobe and
+/// that lobe's density `glossy`: zero below the surface, else `(1 - p)·cos/π + p·glossy`;
+/// its operations in their order, so the same floats, for the SIMD loops.
 #[inline(always)]
-fn cosine_lobe_pdf(nwo: f32, nwi: f32) -> f32 {
-    let (p, glossy) = (0.0f32, 0.0f32);
+fn mixture_pdf(nwo: f32, nwi: f32, p: f32, glossy: f32) -> f32 {
     let cos_pdf = nwi.max(0.0) * std::f32::consts::FRAC_1_PI;
     let below = (nwo <= 0.0) | (nwi <= 0.0);
     if below {
@@ -570,6 +567,12 @@ fn cosine_lobe_pdf(nwo: f32, nwi: f32) -> f32 {
     } else {
         (1.0 - p) * cos_pdf + p * glossy
     }
+}
+
+/// [`mixture_pdf`] of a material without a glossy lobe (Lambert's, Oren–Nayar's: `p` 0).
+#[inline(always)]
+fn cosine_lobe_pdf(nwo: f32, nwi: f32) -> f32 {
+    mixture_pdf(nwo, nwi, 0.0, 0.0)
 }
 
 /// The MIS weight (`quad_weight`: `power_heuristic(nf, pdf, 1, m_pdf)`) of a light sample

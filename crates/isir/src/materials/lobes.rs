@@ -155,7 +155,7 @@ pub fn cook_torrance_spec(f0: Color, roughness: f32, n: Vec3, wo: Vec3, wi: Vec3
         return Color::ZERO;
     }
     let h = (wi + wo).normalize_or_zero();
-    let alpha = (roughness * roughness).max(MIN_ALPHA);
+    let alpha = ggx_alpha(roughness);
     let d = ggx_d(alpha, n.dot(h));
     let g = schlick_ggx(roughness, cos_o) * schlick_ggx(roughness, cos_i);
     let f = schlick_fresnel(f0, h.dot(wo));

@@ -236,7 +236,7 @@ impl Material {
             Material::CookTorrance { roughness, .. } => {
                 let h = (wi + wo).normalize_or_zero();
                 let c = wo.dot(h);
-                let alpha = (roughness * roughness).max(lobes::MIN_ALPHA);
+                let alpha = ggx_alpha(roughness);
                 if c <= 0.0 {
                     0.0
                 } else {
@@ -352,9 +352,7 @@ impl Material {
                     match *self {
                         Material::Plastic { shininess, blinn: false, .. } => sample_phong_lobe(reflect(wo, n), shininess, u),
                         Material::Plastic { shininess, blinn: true, .. } => reflect(wo, sample_phong_lobe(n, shininess, u)),
-                        Material::CookTorrance { roughness, .. } => {
-                            reflect(wo, sample_ggx_visible((roughness * roughness).max(lobes::MIN_ALPHA), n, wo, u))
-                        }
+                        Material::CookTorrance { roughness, .. } => reflect(wo, sample_ggx_visible(ggx_alpha(roughness), n, wo, u)),
                         _ => unreachable!("only the glossy kinds have p > 0"),
                     }
                 } else {
