@@ -55,12 +55,7 @@ pub(super) fn li(
     counters.primary += 1;
     let lights = light_samplers(scene);
     let mut path = Path::new();
-    let (mut ray, mut t_min, mut t_max) = (*ray, t_min, t_max);
-    while let Some(next) =
-        path.step(scene, &lights, &ray, t_min, t_max, scene.intersect(&ray, t_min, t_max), light_samples, max_depth, sampler, counters)
-    {
-        (ray, t_min, t_max) = (next, 0.0, f32::INFINITY);
-    }
+    path.follow(scene, &lights, ray, (t_min, t_max), light_samples, max_depth, sampler, counters);
     path.l
 }
 
@@ -92,6 +87,29 @@ impl Path {
     /// A path starting at the camera.
     pub(super) fn new() -> Path {
         Path { l: Color::ZERO, beta: Color::ONE, specular: true, bsdf_pdf: 0.0, depth: 0 }
+    }
+
+    /// The path from `ray` (in `t_min..t_max`) to its end, vertex by vertex
+    /// ([`Path::step`]). [`li`] follows a path from the camera; the lanes follow their last
+    /// few paths alone.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn follow(
+        &mut self,
+        scene: &Scene,
+        lights: &[LightSampler],
+        ray: &Ray,
+        (t_min, t_max): (f32, f32),
+        light_samples: u32,
+        max_depth: u32,
+        sampler: &mut Sampler,
+        counters: &mut RayCounters,
+    ) {
+        let (mut ray, mut t_min, mut t_max) = (*ray, t_min, t_max);
+        while let Some(next) =
+            self.step(scene, lights, &ray, t_min, t_max, scene.intersect(&ray, t_min, t_max), light_samples, max_depth, sampler, counters)
+        {
+            (ray, t_min, t_max) = (next, 0.0, f32::INFINITY);
+        }
     }
 
     /// One vertex: `hit` is the closest hit of `ray` in `[t_min, t_max)`, `lights` the
