@@ -85,9 +85,10 @@ const ALONE_LANES: u32 = 4;
 /// run phase by phase over the lanes, and every bounce's next hits come from one
 /// [`Scene::intersect_lanes`] over the paths still going (the others are zero rays,
 /// which meet nothing), until, in a scene of spheres and planes, at most [`ALONE_LANES`]
-/// paths are left: those are followed alone ([`Path::follow`]). `hits` holds the camera rays' hits, then each bounce's, and
-/// `rows` their points and normals as rows ([`HitRows`]), read by the SIMD phases (the
-/// light samples, the BSDF's cosine lobe and the next rays).
+/// paths are left: those are followed alone ([`Path::follow`]). `hits` holds the camera
+/// rays' hits, then each bounce's, and `rows` their points and normals as rows
+/// ([`HitRows`]), read by the SIMD phases (the light samples, the BSDF's cosine lobe and
+/// the next rays).
 /// PERF: one path at a time, a vertex is one long chain of dependent operations (square
 /// roots, divisions, a sine and cosine); phase by phase the CPU overlaps the lanes'
 /// chains, and the arithmetic phases are SIMD loops over the lanes (`LightLanes`,
