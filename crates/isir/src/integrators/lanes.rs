@@ -75,8 +75,8 @@ impl Integrator {
     }
 }
 
-/// At most this many live paths go on alone ([`Path::follow`]) in a scene of spheres and
-/// planes: 2, 3, 4, 6 and 8 measured alike (tp6-glass-quad, path, Lambert: 0.943, 0.939,
+/// At most this many live paths go on alone ([`Path::follow`]) unless the scene is one
+/// mesh: 2, 3, 4, 6 and 8 measured alike (tp6-glass-quad, path, Lambert: 0.943, 0.939,
 /// 0.936, 0.933, 0.939 of the CPU time).
 const ALONE_LANES: u32 = 4;
 
@@ -84,7 +84,7 @@ const ALONE_LANES: u32 = 4;
 /// [`Path::step`] (the lane's own sampler, the same operations as one path at a time),
 /// run phase by phase over the lanes, and every bounce's next hits come from one
 /// [`Scene::intersect_lanes`] over the paths still going (the others are zero rays,
-/// which meet nothing), until, in a scene of spheres and planes, at most [`ALONE_LANES`]
+/// which meet nothing), until, unless the scene is one mesh, at most [`ALONE_LANES`]
 /// paths are left: those are followed alone ([`Path::follow`]). `hits` holds the camera
 /// rays' hits, then each bounce's, and `rows` their points and normals as rows
 /// ([`HitRows`]), read by the SIMD phases (the light samples, the BSDF's cosine lobe and
@@ -137,7 +137,7 @@ fn path_lanes(
     // A scene lit by one quad light sampled fewer than `BATCH_FROM` times per vertex:
     // each sample of the sixteen paths set up and traced together (`quad_nee_lanes`).
     let surface_lights = scene.lights.iter().any(Light::is_surface);
-    let alone_from_few = scene.is_flat();
+    let alone_from_few = scene.only_mesh().is_none();
     let quad_in_lanes = lights.len() == 1 && matches!(lights[0], LightSampler::Quad { .. }) && light_samples.max(1) < BATCH_FROM;
     loop {
         let (cur, next) = match &mut ray_pair {
@@ -267,11 +267,12 @@ fn path_lanes(
             break;
         }
         // The last few paths followed alone ([`Path::follow`], the same operations, so
-        // the same floats), in a scene of spheres and planes: there a pass of the lanes'
-        // phases over one to four live paths costs more than those paths one at a time.
-        // PERF: path, Lambert, 16 spp: tp6-glass-quad 0.936 of the CPU time, tp6-mirror-quad
-        // 0.949, tp6-matte 0.971 (paired medians); in the conference room (a mesh, whose
-        // lanes share a stream through its tree) 1.009, so not there.
+        // the same floats), unless the scene is one mesh: a pass of the lanes' phases over
+        // one to four live paths costs more than those paths one at a time.
+        // PERF: path, 16 spp, paired medians of the CPU time: tp6-glass-quad (Lambert)
+        // 0.936, tp6-mirror-quad 0.949, tp6-matte 0.971, tp4-sphere 0.957, tp4-bunny 0.970;
+        // in the conference room (one mesh, whose lanes share a stream down its tree)
+        // 1.009 with its 8 light samples, 0.992 with one, so not there.
         if alone_from_few && active.count_ones() <= ALONE_LANES {
             for k in lanes_of(active) {
                 let range = (next.t_min[k], next.t_max[k]);

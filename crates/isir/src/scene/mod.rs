@@ -169,13 +169,6 @@ impl Scene {
         self.flat.as_ref().filter(|f| f.len() == self.objects.len())
     }
 
-    /// True when the objects are spheres and planes only (TP1–3, TP5, TP6), tested from
-    /// their flat form.
-    #[inline]
-    pub(crate) fn is_flat(&self) -> bool {
-        self.flat().is_some()
-    }
-
     /// The closest hit in `[t_min, t_max)`. Invalid rays (NaN, zero direction) hit nothing.
     #[must_use]
     pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
