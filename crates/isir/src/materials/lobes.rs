@@ -123,6 +123,64 @@ pub fn plastic(kd: Color, ks: Color, shininess: f32, blinn: bool, n: Vec3, wo: V
     0.7 * kd * FRAC_1_PI + 0.3 * ks * phong_cos(blinn, n, wo, wi).powf(shininess) / cos_i.max(MIN_COS)
 }
 
+/// [`plastic`] for `N` light directions at once (`wi[axis][j]`, each unit), into `out`
+/// (`[channel][j]`; `+0` where a lane is unlit): the same operations in the same order on
+/// each lane, so the same floats. The Phong or Blinn–Phong cosines are computed as
+/// straight-line loops the compiler vectorises (the caller decides for which instruction
+/// set), the powers one lane at a time by the same `powf`, and the sums again as loops.
+#[inline(always)]
+#[allow(clippy::needless_range_loop, clippy::too_many_arguments)] // one index into many arrays: the loops vectorise
+pub fn plastic_lanes<const N: usize>(
+    kd: Color,
+    ks: Color,
+    shininess: f32,
+    blinn: bool,
+    n: Vec3,
+    wo: Vec3,
+    wi: &[[f32; N]; 3],
+    out: &mut [[f32; N]; 3],
+) {
+    let cos_o = n.dot(wo);
+    let diffuse = (0.7 * kd * FRAC_1_PI).to_array();
+    let glossy = (0.3 * ks).to_array();
+    // `n · wi` and `phong_cos` per lane, in `Vec3::dot`'s and `normalize_or_zero`'s
+    // operations and order.
+    let (mut cos_i, mut cos) = ([0f32; N], [0f32; N]);
+    for j in 0..N {
+        let (x, y, z) = (wi[0][j], wi[1][j], wi[2][j]);
+        cos_i[j] = n.x * x + n.y * y + n.z * z;
+    }
+    if blinn {
+        for j in 0..N {
+            let (sx, sy, sz) = (wi[0][j] + wo.x, wi[1][j] + wo.y, wi[2][j] + wo.z);
+            let rcp = 1.0 / (sx * sx + sy * sy + sz * sz).sqrt();
+            let (hx, hy, hz) = if rcp.is_finite() && rcp > 0.0 { (sx * rcp, sy * rcp, sz * rcp) } else { (0.0, 0.0, 0.0) };
+            cos[j] = (n.x * hx + n.y * hy + n.z * hz).max(0.0);
+        }
+    } else {
+        for j in 0..N {
+            let t = 2.0 * cos_i[j];
+            let (rx, ry, rz) = (t * n.x - wi[0][j], t * n.y - wi[1][j], t * n.z - wi[2][j]);
+            cos[j] = (rx * wo.x + ry * wo.y + rz * wo.z).max(0.0);
+        }
+    }
+    let lit = |j: usize| !(cos_i[j] <= 0.0 || cos_o <= 0.0);
+    // The powers: libm's, lane by lane (an unlit lane's is not needed).
+    let mut power = [0f32; N];
+    for j in 0..N {
+        if lit(j) {
+            power[j] = cos[j].powf(shininess);
+        }
+    }
+    for j in 0..N {
+        let lit = lit(j);
+        let m = cos_i[j].max(MIN_COS);
+        for k in 0..3 {
+            out[k][j] = if lit { diffuse[k] + glossy[k] * power[j] / m } else { 0.0 };
+        }
+    }
+}
+
 /// GGX normal distribution `D(h)` for `α`, with `cos_h = n·h`.
 #[must_use]
 pub fn ggx_d(alpha: f32, cos_h: f32) -> f32 {
@@ -350,6 +408,46 @@ mod tests {
             }
         }
         assert!(below > 5_000 && above > 5_000 && equal > 500, "{below} {above} {equal}");
+    }
+
+    /// `plastic_lanes` gives `plastic`'s bits lane by lane, Phong and Blinn–Phong, on
+    /// directions chosen to meet its cases: the mirror direction, no half vector, below
+    /// the surface, NaN.
+    #[test]
+    #[allow(clippy::needless_range_loop)] // one index into several arrays
+    fn plastic_lanes_are_plastic() {
+        const N: usize = 16;
+        let mut rng = Sampler::from_seed(7);
+        let mut r = || rng.next_f32() * 2.0 - 1.0;
+        let (mut lit, mut unlit, mut specular) = (0, 0, 0);
+        for round in 0..4000 {
+            let n = Vec3::new(r(), r(), r()).normalize_or(Vec3::Y);
+            let wo = match round % 5 {
+                0 => n,
+                1 => -n,
+                _ => Vec3::new(r(), r(), r()).normalize_or(n),
+            };
+            // Its mirror direction (the Phong peak), `-wo` (no half vector), NaN.
+            let mirror = (2.0 * n.dot(wo) * n - wo).normalize_or(n);
+            let wi = directions::<N>(&[wo, n, Vec3::splat(f32::NAN), -wo, mirror], n, &mut r);
+            let (kd, ks) = (Color::new(r().abs(), 0.5, r().abs() * 3.0), Color::new(1.0, r().abs(), 0.25));
+            let shininess = [1.0, 3.0, 8.0, 32.0, 64.5, 0.0][round % 6];
+            let blinn = round % 2 == 1;
+            let mut out = [[0f32; N]; 3];
+            plastic_lanes(kd, ks, shininess, blinn, n, wo, &wi, &mut out);
+            for j in 0..N {
+                let w = Vec3::new(wi[0][j], wi[1][j], wi[2][j]);
+                let expected = plastic(kd, ks, shininess, blinn, n, wo, w);
+                assert_lane_is(&out, j, expected, round);
+                if expected == Color::ZERO {
+                    unlit += 1;
+                } else {
+                    lit += 1;
+                    specular += usize::from(phong_cos(blinn, n, wo, w) > 0.5);
+                }
+            }
+        }
+        assert!(lit > 15_000 && unlit > 10_000 && specular > 2_000, "{lit} {unlit} {specular}");
     }
 
     /// `cook_torrance_lanes` gives `Material::CookTorrance`'s BRDF bits lane by lane, and

@@ -22,7 +22,7 @@ pub use texture::{srgb_to_linear, Texture, MAX_TEXELS};
 
 pub use lobes::{
     cook_torrance_lanes, cook_torrance_spec, ggx_alpha, ggx_d, ggx_visible_pdf, oren_nayar, oren_nayar_lanes, phong_cos, phong_lobe_pdf,
-    plastic, sample_ggx_visible, sample_phong_lobe, schlick_fresnel, schlick_ggx, visible_pdf,
+    plastic, plastic_lanes, sample_ggx_visible, sample_phong_lobe, schlick_fresnel, schlick_ggx, visible_pdf,
 };
 
 use crate::geometry::Hit;
@@ -171,7 +171,7 @@ impl Material {
     /// (`wi[axis][j]`), into `out[axis][j]`: the same floats. Oren–Nayar in straight-line
     /// loops the compiler vectorises (for the instruction set of the caller), materials
     /// that do not depend on the direction once, Phong and Cook–Torrance one sample after
-    /// another (a quad light's batch takes Cook–Torrance's lanes itself,
+    /// another (a quad light's batch takes Cook–Torrance's and Phong's lanes itself,
     /// `QuadBatch::shade_into`).
     #[inline(always)]
     pub fn shade_lanes<const N: usize>(&self, ray: &Ray, hit: &Hit, wi: &[[f32; N]; 3], out: &mut [[f32; N]; 3]) {
