@@ -11,7 +11,7 @@
 
 use crate::geometry::{Hit, HitRows};
 use crate::lights::{LightSample, LightSampler};
-use crate::materials::{cook_torrance_lanes, ggx_alpha, oren_nayar_lanes, plastic_lanes, visible_pdf, Material};
+use crate::materials::{cook_torrance_lanes, ggx_alpha, oren_nayar_lanes, phong_pdf_lanes, plastic_lanes, visible_pdf, Material};
 use crate::math::color::Color;
 use crate::math::ray::{lane_mask, round_away, Ray, RayLanes, ShadowRays};
 use glam::{Vec2, Vec3};
@@ -37,17 +37,20 @@ pub(super) enum LaneBrdf {
     Lambert(Color),
     /// [`Material::CookTorrance`]'s fields.
     CookTorrance { kd: Color, f0: Color, roughness: f32, metalness: f32 },
+    /// [`Material::Plastic`]'s fields.
+    Plastic { kd: Color, ks: Color, shininess: f32, blinn: bool },
 }
 
 impl LaneBrdf {
-    /// The BRDF of `material`, `None` for Phong's plastic (its powers are libm's `powf`,
-    /// lane by lane), the delta kinds and textures (whose `Material::eval` lights a NaN
-    /// direction where Lambert's does not): left to the samples one at a time.
+    /// The BRDF of `material`, `None` for the delta kinds and textures (whose
+    /// `Material::eval` lights a NaN direction where Lambert's does not): left to the
+    /// samples one at a time.
     pub(super) fn of(material: &Material) -> Option<LaneBrdf> {
         match *material {
             Material::Matte { kd, sigma } => Some(LaneBrdf::OrenNayar { kd, sigma }),
             Material::Color(c) | Material::Lambert(c) => Some(LaneBrdf::Lambert(c)),
             Material::CookTorrance { kd, f0, roughness, metalness } => Some(LaneBrdf::CookTorrance { kd, f0, roughness, metalness }),
+            Material::Plastic { kd, ks, shininess, blinn } => Some(LaneBrdf::Plastic { kd, ks, shininess, blinn }),
             _ => None,
         }
     }
@@ -260,13 +263,13 @@ impl QuadBatch {
     /// PERF: one sample at a time, `oren_nayar` and `Material::pdf` were 53% of the path
     /// tracer on the TP6 rooms with their own materials.
     pub(super) fn brdf_values(&self, v: VertexSamples, value: &mut [[f32; BATCH]; 3]) -> u32 {
-        if let LaneBrdf::CookTorrance { .. } = v.lobe {
+        if let LaneBrdf::CookTorrance { .. } | LaneBrdf::Plastic { .. } = v.lobe {
             return self.glossy_values(v, value);
         }
         self.brdf_values_dispatch::<false>(v, value)
     }
 
-    /// [`Self::brdf_values`] for Cook–Torrance. PERF: a function of its own: compiled into
+    /// [`Self::brdf_values`] for Cook–Torrance and plastic. PERF: a function of its own: compiled into
     /// the same function as the diffuse lobes', it made the path tracer on tp6-glass-quad
     /// (Oren–Nayar) 1.053 of its time.
     #[inline(never)]
@@ -289,8 +292,8 @@ impl QuadBatch {
         self.brdf_values_portable::<GLOSSY>(v, value)
     }
 
-    /// [`Self::brdf_values`]' loops: `GLOSSY` for Cook–Torrance (whose pdf is computed
-    /// first, in lanes), else the lobes whose pdf is the cosine lobe's.
+    /// [`Self::brdf_values`]' loops: `GLOSSY` for Cook–Torrance and plastic (whose pdf is
+    /// computed first, in lanes), else the lobes whose pdf is the cosine lobe's.
     #[inline(always)]
     #[allow(clippy::needless_range_loop)] // the loops vectorise
     fn brdf_values_portable<const GLOSSY: bool>(&self, v: VertexSamples, value: &mut [[f32; BATCH]; 3]) -> u32 {
@@ -332,7 +335,17 @@ impl QuadBatch {
                     m_pdf[j] = mixture_pdf(nwo, nwi, p, glossy);
                 }
             }
-            _ => unreachable!("brdf_values sends Cook–Torrance to glossy_values"),
+            LaneBrdf::Plastic { kd, ks, shininess, blinn } if GLOSSY => {
+                // `plastic` is `eval` (both test the same dot products), then
+                // `glossy_probability` (one half) and `glossy_pdf` of the Phong lobe.
+                plastic_lanes(kd, ks, shininess, blinn, normal, wo, &self.wi, value);
+                let mut glossy = [0f32; BATCH];
+                phong_pdf_lanes(shininess, blinn, normal, wo, &self.wi, &mut glossy);
+                for j in 0..BATCH {
+                    m_pdf[j] = mixture_pdf(nwo, nwi(j), 0.5, glossy[j]);
+                }
+            }
+            _ => unreachable!("brdf_values sends Cook–Torrance and plastic to glossy_values"),
         }
         let mut traced = [false; BATCH];
         for j in 0..BATCH {
@@ -1341,8 +1354,8 @@ mod tests {
     /// (`Path::quad_sample_value`), for counts of one to sixteen, path directions above
     /// and below the surface, colours whose products with zero are not `+0`, and the
     /// lanes past the count left out, Cook–Torrance of every metalness (0, between, 1,
-    /// past both ends) and roughness down to 0. Plastic, the delta kinds and textures stay
-    /// one sample at a time.
+    /// past both ends) and roughness down to 0, Phong's and Blinn–Phong's plastic. The delta
+    /// kinds and textures stay one sample at a time.
     #[test]
     fn brdf_values_are_next_events_one_sample_at_a_time() {
         use crate::integrators::path::Path;
@@ -1361,13 +1374,11 @@ mod tests {
             Material::CookTorrance { kd: Vec3::ONE, f0: Vec3::splat(0.04), roughness: 0.0, metalness: 0.0 },
             Material::CookTorrance { kd: Vec3::ONE, f0: Vec3::splat(0.9), roughness: 1.0, metalness: 1.5 },
             Material::CookTorrance { kd: Vec3::ONE, f0: Vec3::splat(0.9), roughness: 0.05, metalness: -0.5 },
-        ];
-        for m in [
             Material::Plastic { kd: Vec3::ONE, ks: Vec3::ONE, shininess: 64.0, blinn: false },
-            Material::Plastic { kd: Vec3::ONE, ks: Vec3::ONE, shininess: 64.0, blinn: true },
-            Material::Mirror,
-            Material::Transparent { ior: 1.3 },
-        ] {
+            Material::Plastic { kd: Vec3::new(0.9, 0.2, 0.1), ks: Vec3::new(1.0, 0.5, 0.25), shininess: 3.0, blinn: true },
+            Material::Plastic { kd: Vec3::new(0.5, 0.6, 0.7), ks: Vec3::ONE, shininess: 0.0, blinn: false },
+        ];
+        for m in [Material::Mirror, Material::Transparent { ior: 1.3 }] {
             assert!(LaneBrdf::of(&m).is_none(), "{m:?}");
         }
         let light = Light::Quad {
@@ -1402,7 +1413,7 @@ mod tests {
             let lobe = LaneBrdf::of(&material).expect("a material of the lanes");
             let v = VertexSamples { lobe, normal, wo, n, count };
             let fast_traced = batch.brdf_values(v, &mut fast);
-            let portable_traced = if matches!(lobe, LaneBrdf::CookTorrance { .. }) {
+            let portable_traced = if matches!(lobe, LaneBrdf::CookTorrance { .. } | LaneBrdf::Plastic { .. }) {
                 batch.brdf_values_portable::<true>(v, &mut portable)
             } else {
                 batch.brdf_values_portable::<false>(v, &mut portable)

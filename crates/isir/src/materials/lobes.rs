@@ -181,6 +181,40 @@ pub fn plastic_lanes<const N: usize>(
     }
 }
 
+/// The density of the Phong lobe's directions (`Material::glossy_pdf` of a plastic of
+/// `shininess`, Phong's or Blinn–Phong's) for `N` directions at once (`wi[axis][j]`), into
+/// `out[j]`: the same operations in the same order on each lane, so the same floats (the
+/// reflection or half vectors as straight-line loops, then [`phong_lobe_pdf`] lane by
+/// lane, its power being libm's `powf`).
+#[inline(always)]
+#[allow(clippy::needless_range_loop)] // one index into many arrays: the loops vectorise
+pub fn phong_pdf_lanes<const N: usize>(shininess: f32, blinn: bool, n: Vec3, wo: Vec3, wi: &[[f32; N]; 3], out: &mut [f32; N]) {
+    if blinn {
+        // `h = (wi + wo).normalize_or_zero()`, `wo · h` and `n · h`.
+        let (mut c, mut nh) = ([0f32; N], [0f32; N]);
+        for j in 0..N {
+            let (sx, sy, sz) = (wi[0][j] + wo.x, wi[1][j] + wo.y, wi[2][j] + wo.z);
+            let rcp = 1.0 / (sx * sx + sy * sy + sz * sz).sqrt();
+            let (hx, hy, hz) = if rcp.is_finite() && rcp > 0.0 { (sx * rcp, sy * rcp, sz * rcp) } else { (0.0, 0.0, 0.0) };
+            c[j] = wo.x * hx + wo.y * hy + wo.z * hz;
+            nh[j] = n.x * hx + n.y * hy + n.z * hz;
+        }
+        for j in 0..N {
+            out[j] = if c[j] <= 0.0 { 0.0 } else { phong_lobe_pdf(shininess, nh[j]) / (4.0 * c[j]) };
+        }
+    } else {
+        // `wi · reflect(wo, n)`.
+        let r = 2.0 * n.dot(wo) * n - wo;
+        let mut cos = [0f32; N];
+        for j in 0..N {
+            cos[j] = wi[0][j] * r.x + wi[1][j] * r.y + wi[2][j] * r.z;
+        }
+        for j in 0..N {
+            out[j] = phong_lobe_pdf(shininess, cos[j]);
+        }
+    }
+}
+
 /// GGX normal distribution `D(h)` for `α`, with `cos_h = n·h`.
 #[must_use]
 pub fn ggx_d(alpha: f32, cos_h: f32) -> f32 {

@@ -22,7 +22,7 @@ pub use texture::{srgb_to_linear, Texture, MAX_TEXELS};
 
 pub use lobes::{
     cook_torrance_lanes, cook_torrance_spec, ggx_alpha, ggx_d, ggx_visible_pdf, oren_nayar, oren_nayar_lanes, phong_cos, phong_lobe_pdf,
-    plastic, plastic_lanes, sample_ggx_visible, sample_phong_lobe, schlick_fresnel, schlick_ggx, visible_pdf,
+    phong_pdf_lanes, plastic, plastic_lanes, sample_ggx_visible, sample_phong_lobe, schlick_fresnel, schlick_ggx, visible_pdf,
 };
 
 use crate::geometry::Hit;
