@@ -378,12 +378,8 @@ impl QuadBatch {
 
     /// `Self::shade` (the tests' form) into `out` (every lane written).
     pub(super) fn shade_into(&self, material: &Material, ray: &Ray, hit: &Hit, out: &mut [[f32; BATCH]; 3]) {
-        if let Material::CookTorrance { .. } = material {
-            self.cook_torrance_into(material, ray, hit, out);
-            return;
-        }
-        if let Material::Plastic { .. } = material {
-            self.plastic_into(material, ray, hit, out);
+        if let Material::CookTorrance { .. } | Material::Plastic { .. } = material {
+            self.glossy_into(material, ray, hit, out);
             return;
         }
         #[cfg(target_arch = "x86_64")]
@@ -399,43 +395,25 @@ impl QuadBatch {
         material.shade_lanes(ray, hit, &self.wi, out);
     }
 
-    /// [`Self::shade_into`] for [`Material::CookTorrance`]: [`cook_torrance_lanes`] with the
-    /// `wo` `Material::shade` computes. PERF: a function of its own: inlined into the other
-    /// materials' `shade_lanes`, it made tp6-glass-quad (Oren–Nayar) 1.018 of its time.
+    /// [`Self::shade_into`] for [`Material::CookTorrance`] ([`cook_torrance_lanes`]) and
+    /// [`Material::Plastic`] ([`plastic_lanes`]), with the `wo` `Material::shade` computes.
+    /// PERF: a function of its own: inlined into the other materials' `shade_lanes`,
+    /// Cook–Torrance's lanes made tp6-glass-quad (Oren–Nayar) 1.018 of its time. Plastic
+    /// one sample at a time: `plastic` took 40% of the TP6 room's Whitted render with
+    /// plastic walls, libm's `powf` 22%.
     #[inline(never)]
-    fn cook_torrance_into(&self, material: &Material, ray: &Ray, hit: &Hit, out: &mut [[f32; BATCH]; 3]) {
+    fn glossy_into(&self, material: &Material, ray: &Ray, hit: &Hit, out: &mut [[f32; BATCH]; 3]) {
         let wo = -ray.direction.normalize_or_zero();
         #[inline(always)]
         fn portable(b: &QuadBatch, material: &Material, n: Vec3, wo: Vec3, out: &mut [[f32; BATCH]; 3]) {
-            let Material::CookTorrance { kd, f0, roughness, metalness } = *material else { unreachable!("a Cook–Torrance material") };
-            let (mut d, mut c) = ([0f32; BATCH], [0f32; BATCH]);
-            cook_torrance_lanes(kd, f0, roughness, metalness, n, wo, &b.wi, out, &mut d, &mut c);
-        }
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
-            #[target_feature(enable = "avx2")]
-            fn avx2(b: &QuadBatch, material: &Material, n: Vec3, wo: Vec3, out: &mut [[f32; BATCH]; 3]) {
-                portable(b, material, n, wo, out);
+            match *material {
+                Material::CookTorrance { kd, f0, roughness, metalness } => {
+                    let (mut d, mut c) = ([0f32; BATCH], [0f32; BATCH]);
+                    cook_torrance_lanes(kd, f0, roughness, metalness, n, wo, &b.wi, out, &mut d, &mut c);
+                }
+                Material::Plastic { kd, ks, shininess, blinn } => plastic_lanes(kd, ks, shininess, blinn, n, wo, &b.wi, out),
+                _ => unreachable!("a Cook–Torrance or plastic material"),
             }
-            // SAFETY: the CPU has AVX2, which is all `avx2` is compiled for.
-            unsafe { avx2(self, material, hit.normal, wo, out) };
-            return;
-        }
-        portable(self, material, hit.normal, wo, out);
-    }
-
-    /// [`Self::shade_into`] for [`Material::Plastic`]: [`plastic_lanes`] with the `wo`
-    /// `Material::shade` computes. PERF: one sample at a time, `plastic` took 40% of the
-    /// TP6 room's Whitted render with plastic walls, libm's `powf` 22%. A function of its
-    /// own, as Cook–Torrance's (inlined beside the other materials' lanes, such code cost
-    /// the Oren–Nayar rooms time).
-    #[inline(never)]
-    fn plastic_into(&self, material: &Material, ray: &Ray, hit: &Hit, out: &mut [[f32; BATCH]; 3]) {
-        let wo = -ray.direction.normalize_or_zero();
-        #[inline(always)]
-        fn portable(b: &QuadBatch, material: &Material, n: Vec3, wo: Vec3, out: &mut [[f32; BATCH]; 3]) {
-            let Material::Plastic { kd, ks, shininess, blinn } = *material else { unreachable!("a plastic material") };
-            plastic_lanes(kd, ks, shininess, blinn, n, wo, &b.wi, out);
         }
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {

@@ -397,6 +397,17 @@ mod tests {
         }
     }
 
+    /// A random unit normal, and `wo` along it, against it, or random (by `round`).
+    fn normal_and_wo(round: usize, r: &mut impl FnMut() -> f32) -> (Vec3, Vec3) {
+        let n = Vec3::new(r(), r(), r()).normalize_or(Vec3::Y);
+        let wo = match round % 5 {
+            0 => n,
+            1 => -n,
+            _ => Vec3::new(r(), r(), r()).normalize_or(n),
+        };
+        (n, wo)
+    }
+
     /// `N` directions as lanes (`[axis][j]`): `special` first, then random unit vectors
     /// (`n` where one is too short to normalise).
     fn directions<const N: usize>(special: &[Vec3], n: Vec3, r: &mut impl FnMut() -> f32) -> [[f32; N]; 3] {
@@ -455,12 +466,7 @@ mod tests {
         let mut r = || rng.next_f32() * 2.0 - 1.0;
         let (mut lit, mut unlit, mut specular) = (0, 0, 0);
         for round in 0..4000 {
-            let n = Vec3::new(r(), r(), r()).normalize_or(Vec3::Y);
-            let wo = match round % 5 {
-                0 => n,
-                1 => -n,
-                _ => Vec3::new(r(), r(), r()).normalize_or(n),
-            };
+            let (n, wo) = normal_and_wo(round, &mut r);
             // Its mirror direction (the Phong peak), `-wo` (no half vector), NaN.
             let mirror = (2.0 * n.dot(wo) * n - wo).normalize_or(n);
             let wi = directions::<N>(&[wo, n, Vec3::splat(f32::NAN), -wo, mirror], n, &mut r);
@@ -496,12 +502,7 @@ mod tests {
         let mut r = || rng.next_f32() * 2.0 - 1.0;
         let (mut lit, mut unlit) = (0, 0);
         for round in 0..4000 {
-            let n = Vec3::new(r(), r(), r()).normalize_or(Vec3::Y);
-            let wo = match round % 5 {
-                0 => n,
-                1 => -n,
-                _ => Vec3::new(r(), r(), r()).normalize_or(n),
-            };
+            let (n, wo) = normal_and_wo(round, &mut r);
             let wi = directions::<N>(&[wo, n, Vec3::splat(f32::NAN), -wo, (wo - 2.0 * n * n.dot(wo)).normalize_or(n)], n, &mut r);
             let kd = Color::new(r().abs(), 0.5, r().abs() * 3.0);
             let f0 = Color::new(1.0, 0.85 * r().abs(), 0.57);
