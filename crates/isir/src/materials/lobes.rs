@@ -152,10 +152,8 @@ pub fn plastic_lanes<const N: usize>(
     }
     if blinn {
         for j in 0..N {
-            let (sx, sy, sz) = (wi[0][j] + wo.x, wi[1][j] + wo.y, wi[2][j] + wo.z);
-            let rcp = 1.0 / (sx * sx + sy * sy + sz * sz).sqrt();
-            let (hx, hy, hz) = if rcp.is_finite() && rcp > 0.0 { (sx * rcp, sy * rcp, sz * rcp) } else { (0.0, 0.0, 0.0) };
-            cos[j] = (n.x * hx + n.y * hy + n.z * hz).max(0.0);
+            let h = half_vector(wi[0][j], wi[1][j], wi[2][j], wo);
+            cos[j] = (n.x * h[0] + n.y * h[1] + n.z * h[2]).max(0.0);
         }
     } else {
         for j in 0..N {
@@ -193,11 +191,9 @@ pub fn phong_pdf_lanes<const N: usize>(shininess: f32, blinn: bool, n: Vec3, wo:
         // `h = (wi + wo).normalize_or_zero()`, `wo · h` and `n · h`.
         let (mut c, mut nh) = ([0f32; N], [0f32; N]);
         for j in 0..N {
-            let (sx, sy, sz) = (wi[0][j] + wo.x, wi[1][j] + wo.y, wi[2][j] + wo.z);
-            let rcp = 1.0 / (sx * sx + sy * sy + sz * sz).sqrt();
-            let (hx, hy, hz) = if rcp.is_finite() && rcp > 0.0 { (sx * rcp, sy * rcp, sz * rcp) } else { (0.0, 0.0, 0.0) };
-            c[j] = wo.x * hx + wo.y * hy + wo.z * hz;
-            nh[j] = n.x * hx + n.y * hy + n.z * hz;
+            let h = half_vector(wi[0][j], wi[1][j], wi[2][j], wo);
+            c[j] = wo.x * h[0] + wo.y * h[1] + wo.z * h[2];
+            nh[j] = n.x * h[0] + n.y * h[1] + n.z * h[2];
         }
         for j in 0..N {
             out[j] = if c[j] <= 0.0 { 0.0 } else { phong_lobe_pdf(shininess, nh[j]) / (4.0 * c[j]) };
@@ -212,6 +208,20 @@ pub fn phong_pdf_lanes<const N: usize>(shininess: f32, blinn: bool, n: Vec3, wo:
         for j in 0..N {
             out[j] = phong_lobe_pdf(shininess, cos[j]);
         }
+    }
+}
+
+/// A lane's half vector, `(wi + wo).normalize_or_zero()` with `wi = (x, y, z)`, in its
+/// operations: times the reciprocal of the length where that is finite and positive,
+/// else zero.
+#[inline(always)]
+fn half_vector(x: f32, y: f32, z: f32, wo: Vec3) -> [f32; 3] {
+    let s = [x + wo.x, y + wo.y, z + wo.z];
+    let rcp = 1.0 / (s[0] * s[0] + s[1] * s[1] + s[2] * s[2]).sqrt();
+    if rcp.is_finite() & (rcp > 0.0) {
+        [s[0] * rcp, s[1] * rcp, s[2] * rcp]
+    } else {
+        [0.0; 3]
     }
 }
 
@@ -287,12 +297,7 @@ pub fn cook_torrance_lanes<const N: usize>(
     for j in 0..N {
         let (x, y, z) = (wi[0][j], wi[1][j], wi[2][j]);
         let cos_i = n.x * x + n.y * y + n.z * z;
-        // `(wi + wo).normalize_or_zero()`: times the reciprocal of the length where that is
-        // finite and positive, else zero.
-        let s = [x + wo.x, y + wo.y, z + wo.z];
-        let rcp = 1.0 / (s[0] * s[0] + s[1] * s[1] + s[2] * s[2]).sqrt();
-        let unit = rcp.is_finite() & (rcp > 0.0);
-        let h = if unit { [s[0] * rcp, s[1] * rcp, s[2] * rcp] } else { [0.0; 3] };
+        let h = half_vector(x, y, z, wo);
         // `ggx_d(alpha, n · h)`.
         let cos_h = n.x * h[0] + n.y * h[1] + n.z * h[2];
         let t = cos_h * cos_h * (a2 - 1.0) + 1.0;
