@@ -27,8 +27,9 @@ pub(super) const BATCH_FROM: u32 = 4;
 
 /// A material's BRDF and pdf as [`QuadBatch::brdf_values`] computes them in lanes:
 /// Oren–Nayar's (the course's `MatteMaterial`) and Lambert's of the given albedo (Lambert,
-/// the course's colours), whose [`Material::pdf`] is the cosine lobe's, and Cook–Torrance's,
-/// whose pdf mixes in GGX's visible normals.
+/// the course's colours), whose [`Material::pdf`] is the cosine lobe's; Cook–Torrance's,
+/// whose pdf mixes in GGX's visible normals, and plastic's, whose pdf mixes in the Phong
+/// lobe.
 #[derive(Clone, Copy, Debug)]
 pub(super) enum LaneBrdf {
     /// [`oren_nayar`](crate::materials::oren_nayar) of colour `kd` and roughness `sigma`.
@@ -257,9 +258,10 @@ impl QuadBatch {
     /// path leaving towards `v.wo`, into `value`: the lanes whose sample is worth its shadow ray
     /// (`has_ray` and [`super::path::Path::light_sample_f`] together), and what each brings
     /// when unoccluded ([`super::path::Path::quad_sample_value`]): the operations of
-    /// `Material::eval` ([`oren_nayar_lanes`], [`cook_torrance_lanes`]: the same floats as
-    /// the scalar formulas), `Material::pdf`, the power heuristic and the sample's value in their
-    /// order, so the same floats, as SIMD loops (AVX2 where the CPU has it).
+    /// `Material::eval` ([`oren_nayar_lanes`], [`cook_torrance_lanes`], [`plastic_lanes`]:
+    /// the same floats as the scalar formulas), `Material::pdf`, the power heuristic and the
+    /// sample's value in their order, so the same floats, as SIMD loops (AVX2 where the CPU
+    /// has it).
     /// PERF: one sample at a time, `oren_nayar` and `Material::pdf` were 53% of the path
     /// tracer on the TP6 rooms with their own materials.
     pub(super) fn brdf_values(&self, v: VertexSamples, value: &mut [[f32; BATCH]; 3]) -> u32 {
@@ -269,9 +271,9 @@ impl QuadBatch {
         self.brdf_values_dispatch::<false>(v, value)
     }
 
-    /// [`Self::brdf_values`] for Cook–Torrance and plastic. PERF: a function of its own: compiled into
-    /// the same function as the diffuse lobes', it made the path tracer on tp6-glass-quad
-    /// (Oren–Nayar) 1.053 of its time.
+    /// [`Self::brdf_values`] for Cook–Torrance and plastic. PERF: a function of its own:
+    /// compiled into the same function as the diffuse lobes', Cook–Torrance's made the path
+    /// tracer on tp6-glass-quad (Oren–Nayar) 1.053 of its time.
     #[inline(never)]
     fn glossy_values(&self, v: VertexSamples, value: &mut [[f32; BATCH]; 3]) -> u32 {
         self.brdf_values_dispatch::<true>(v, value)
@@ -305,7 +307,7 @@ impl QuadBatch {
         let nwo = nm[0] * wo.x + nm[1] * wo.y + nm[2] * wo.z;
         let nwi = |j: usize| nm[0] * wi[0][j] + nm[1] * wi[1][j] + nm[2] * wi[2][j];
         // `Material::eval` into `value`: black unless both directions are above the
-        // surface; for Cook–Torrance, `Material::pdf` into `m_pdf`.
+        // surface; for Cook–Torrance and plastic, `Material::pdf` into `m_pdf`.
         let mut m_pdf = [0f32; BATCH];
         match lobe {
             // What `oren_nayar` itself tests (the same dot products): `oren_nayar` alone.
@@ -1217,8 +1219,6 @@ mod tests {
         }
     }
 
-    /// A hit at `point` (error bound `point_error`) with shading normal `normal` and
-    /// geometric normal `ng`.
     /// A hit at a random point below the test lights, with a random geometric normal and
     /// a shading normal straight up, straight down or near the geometric one (by `round`):
     /// the hit, its point, shading normal and geometric normal.
@@ -1233,6 +1233,8 @@ mod tests {
         (test_hit(p, Vec3::ZERO, normal, ng), p, normal, ng)
     }
 
+    /// A hit at `point` (error bound `point_error`) with shading normal `normal` and
+    /// geometric normal `ng`.
     fn test_hit(point: Vec3, point_error: Vec3, normal: Vec3, ng: Vec3) -> Hit {
         Hit { t: 1.0, point, point_error, normal, geometric_normal: ng, front_face: true, ..Hit::ZERO }
     }
@@ -1325,8 +1327,8 @@ mod tests {
         assert!(lit > 10_000 && unlit > 5_000, "{lit} {unlit}");
     }
 
-    /// A batch's values for the path tracer at an Oren–Nayar, Lambert, colour or
-    /// Cook–Torrance vertex are `next_event`'s, sample by sample, bit for bit, on the AVX2
+    /// A batch's values for the path tracer at an Oren–Nayar, Lambert, colour,
+    /// Cook–Torrance or plastic vertex are `next_event`'s, sample by sample, bit for bit, on the AVX2
     /// path (where this CPU has it) and the portable one: whether each sample is worth its
     /// shadow ray (`has_ray` and `Path::light_sample_f`) and what it brings unoccluded
     /// (`Path::quad_sample_value`), for counts of one to sixteen, path directions above
