@@ -154,17 +154,20 @@ fn collapsed_nodes_bound_their_children_in_decreasing_area_order() {
         }
         for lane in used..8 {
             assert!(lane_box(node, lane).min.x > lane_box(node, lane).max.x, "empty lanes hold an inverted box");
+            assert_eq!(node.next[lane], EMPTY, "an empty lane has nothing to prefetch");
         }
         for lane in 0..used {
             let b = lane_box(node, lane);
             let code = node.child[lane];
             if code & LEAF == 0 {
                 let kid = &w.nodes[code as usize / std::mem::size_of::<Node8>()];
+                assert_eq!(node.next[lane], kid.child[0], "an inner child's next is its lane 0");
                 for k in kid.child.iter().enumerate().filter(|(_, &c)| c != EMPTY).map(|(k, _)| k) {
                     let kb = lane_box(kid, k);
                     assert!(contains(&b, kb.min) && contains(&b, kb.max), "a child box outside its parent's lane");
                 }
             } else {
+                assert_eq!(node.next[lane], code, "a leaf's next is the leaf");
                 for block in &w.tris[leaf_blocks(code)] {
                     for (l, &p) in block.prim.iter().enumerate().filter(|(_, &p)| p != EMPTY) {
                         seen[p as usize] += 1;

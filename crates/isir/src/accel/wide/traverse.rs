@@ -87,13 +87,16 @@ impl WideBvh {
                     // nearest of more, and lane 0 (the largest box, the most often hit)
                     // whose child code sits at a constant offset. Each measured A/B:
                     // lane 0 alone +10% shadow, +9% primary; lane 0 first in any hit
-                    // +13% shadow; see ARCHITECTURE.md.
+                    // +13% shadow; see ARCHITECTURE.md. Whichever child is gone into,
+                    // its `next` is prefetched (`prefetch_next`).
                     if mask == 1 {
                         cur = node.child[0];
+                        self.prefetch_next(node.next[0]);
                         continue;
                     }
                     if mask & (mask - 1) == 0 {
                         cur = node.child[mask.trailing_zeros() as usize];
+                        self.prefetch_next(node.next[mask.trailing_zeros() as usize]);
                         continue;
                     }
                     if ANY {
@@ -110,9 +113,11 @@ impl WideBvh {
                         }
                         if mask & 1 != 0 {
                             cur = node.child[0];
+                            self.prefetch_next(node.next[0]);
                             continue;
                         }
                         cur = node.child[mask.trailing_zeros() as usize];
+                        self.prefetch_next(node.next[mask.trailing_zeros() as usize]);
                         continue;
                     }
                     let l0 = mask.trailing_zeros() as usize;
@@ -129,6 +134,7 @@ impl WideBvh {
                             unsafe { stack.get_unchecked_mut(sp).write((node.child[l1], dist[l1])) };
                             sp += 1;
                             cur = node.child[0];
+                            self.prefetch_next(node.next[0]);
                             continue;
                         }
                         if mask == 3 && dist[1] <= dist[0] {
@@ -137,6 +143,7 @@ impl WideBvh {
                             unsafe { stack.get_unchecked_mut(sp).write((node.child[0], dist[0])) };
                             sp += 1;
                             cur = node.child[1];
+                            self.prefetch_next(node.next[1]);
                             continue;
                         }
                         if dist[l1] <= dist[l0] {
@@ -144,11 +151,13 @@ impl WideBvh {
                             unsafe { stack.get_unchecked_mut(sp).write((node.child[l0], dist[l0])) };
                             sp += 1;
                             cur = node.child[l1];
+                            self.prefetch_next(node.next[l1]);
                         } else {
                             // SAFETY: as for the pushes below.
                             unsafe { stack.get_unchecked_mut(sp).write((node.child[l1], dist[l1])) };
                             sp += 1;
                             cur = node.child[l0];
+                            self.prefetch_next(node.next[l0]);
                         }
                         continue;
                     }
@@ -165,6 +174,7 @@ impl WideBvh {
                         if mask & 1 != 0 && unsafe { nearer_count(keys, 0, mask) } == 0 {
                             // The largest box nearest: its child at a constant offset.
                             cur = node.child[0];
+                            self.prefetch_next(node.next[0]);
                             m &= m - 1;
                         }
                         while m != 0 {
@@ -177,6 +187,7 @@ impl WideBvh {
                                 // predicts (as for two hits); reading it back from the
                                 // stack waited for every rank: primary +6.5%, diffuse +2%.
                                 cur = node.child[lane];
+                                self.prefetch_next(node.next[lane]);
                             } else {
                                 // SAFETY: sp + n <= STACK_SIZE: at most eight entries are
                                 // written per level and `from_bvh` checks the depth.
@@ -187,13 +198,13 @@ impl WideBvh {
                         continue;
                     }
                     // More hits: push them far to near, continue with the nearest.
-                    let mut order = [(0f32, 0u32); 8];
+                    let mut order = [(0f32, 0u32, 0u32); 8];
                     let mut n = 0;
                     let mut m = mask;
                     while m != 0 {
                         let lane = m.trailing_zeros() as usize;
                         m &= m - 1;
-                        let item = (dist[lane], node.child[lane]);
+                        let item = (dist[lane], node.child[lane], node.next[lane]);
                         // Insertion sort, farthest first.
                         let mut j = n;
                         while j > 0 && order[j - 1].0 < item.0 {
@@ -204,13 +215,14 @@ impl WideBvh {
                         n += 1;
                     }
                     debug_assert!(sp + n - 1 <= STACK_SIZE);
-                    for &(d, c) in &order[..n - 1] {
+                    for &(d, c, _) in &order[..n - 1] {
                         // SAFETY: sp < STACK_SIZE: at most seven entries are pushed per level
                         // and `from_bvh` checks the depth against `STACK_SIZE`.
                         unsafe { stack.get_unchecked_mut(sp).write((c, d)) };
                         sp += 1;
                     }
                     cur = order[n - 1].1;
+                    self.prefetch_next(order[n - 1].2);
                     continue;
                 }
             } else {
