@@ -183,9 +183,8 @@ impl Collapse {
         let mut lanes: [usize; 8] = std::array::from_fn(|i| i);
         lanes[..n].sort_by(|&a, &b| areas[b].total_cmp(&areas[a]));
         for (lane, &i) in lanes[..n].iter().enumerate() {
-            let mut node = self.nodes[slot];
-            node.set(lane, &bvh.nodes[kids[i]].aabb(), codes[i], &self.nodes);
-            self.nodes[slot] = node;
+            let next = next_code(&self.nodes, codes[i]);
+            self.nodes[slot].set(lane, &bvh.nodes[kids[i]].aabb(), codes[i], next);
         }
         let code = slot * std::mem::size_of::<Node8>();
         assert!(code < LEAF as usize, "too many wide nodes for 31-bit node offsets");

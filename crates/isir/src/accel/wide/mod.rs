@@ -101,14 +101,14 @@ impl Node8 {
     pub(crate) const EMPTY: Node8 =
         Node8 { lo: [[f32::INFINITY; 8]; 3], hi: [[f32::NEG_INFINITY; 8]; 3], child: [EMPTY; 8], next: [EMPTY; 8] };
 
-    /// Lane `lane` made the child `code` with box `b`, in a tree whose nodes are `nodes`.
-    fn set(&mut self, lane: usize, b: &crate::math::aabb::Aabb, code: u32, nodes: &[Node8]) {
+    /// Lane `lane` made the child `code` with box `b`, and `next` its [`next_code`].
+    fn set(&mut self, lane: usize, b: &crate::math::aabb::Aabb, code: u32, next: u32) {
         for axis in 0..3 {
             self.lo[axis][lane] = b.min[axis];
             self.hi[axis][lane] = b.max[axis];
         }
         self.child[lane] = code;
-        self.next[lane] = next_code(nodes, code);
+        self.next[lane] = next;
     }
 }
 
@@ -533,7 +533,7 @@ impl WideBvh {
         }
         let mut node = Node8::EMPTY;
         for (lane, &(code, lo, hi)) in lanes.iter().enumerate() {
-            node.set(lane, &crate::math::aabb::Aabb::new(lo, hi), code, &self.nodes);
+            node.set(lane, &crate::math::aabb::Aabb::new(lo, hi), code, next_code(&self.nodes, code));
         }
         Some(Cut { node, tree: self.stamp() })
     }
