@@ -140,9 +140,16 @@ pub fn build_timed(mesh: &mut TriangleMesh, accel: Accel, repeat: u32, simd: Opt
         mesh.build_accel(accel);
         build_ms = build_ms.min(t.elapsed().as_secs_f64() * 1e3);
     }
+    let fallback = mesh.stats().warning();
+    warn_all(fallback.as_slice());
     if let Some(l) = simd {
         anyhow::ensure!(SimdLevel::available().contains(&l), "--simd {}: this CPU cannot run it", l.name());
-        anyhow::ensure!(mesh.set_simd_level(l), "--simd applies to --accel bvh-sah only");
+        if !mesh.set_simd_level(l) {
+            match fallback {
+                Some(why) => anyhow::bail!("--simd applies to the wide BVH only, and this mesh has none: {why}"),
+                None => anyhow::bail!("--simd applies to --accel bvh-sah only"),
+            }
+        }
     }
     let simd = match mesh.accel() {
         MeshAccel::Wide(w) => w.level().name(),

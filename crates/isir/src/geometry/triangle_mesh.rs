@@ -134,6 +134,20 @@ pub struct MeshStats {
     pub sah_cost: f32,
     /// Bytes of the acceleration structure per triangle.
     pub bytes_per_triangle: f32,
+    /// `bvh-sah` was asked for but its tree was too large for the wide layout
+    /// ([`crate::accel::wide::TooLarge`]): the binary SAH tree is traced instead, correct
+    /// but slower ([`MeshStats::warning`]).
+    pub binary_fallback: bool,
+}
+
+impl MeshStats {
+    /// What a user should be told about the structure built: the binary fallback.
+    #[must_use]
+    pub fn warning(&self) -> Option<String> {
+        self.binary_fallback.then(|| {
+            format!("{} triangles: {}; the binary SAH BVH is traced instead (slower)", self.triangles, crate::accel::wide::TooLarge)
+        })
+    }
 }
 
 /// A triangle mesh.
@@ -310,6 +324,7 @@ impl TriangleMesh {
             let accel = match self.accel {
                 MeshAccel::None => Accel::None,
                 MeshAccel::Aabb => Accel::Aabb,
+                MeshAccel::Bvh(_) if self.stats.binary_fallback => Accel::BvhSah,
                 MeshAccel::Bvh(_) => Accel::BvhMid,
                 MeshAccel::Wide(_) => Accel::BvhSah,
             };
@@ -353,8 +368,17 @@ impl TriangleMesh {
         b
     }
 
-    /// Build the acceleration structure (replacing any previous one).
+    /// Build the acceleration structure (replacing any previous one). A `bvh-sah` tree
+    /// too large for the wide layout (about 175 million triangles) is traced as the binary
+    /// SAH tree: [`MeshStats::binary_fallback`].
     pub fn build_accel(&mut self, accel: Accel) {
+        self.build_accel_within(accel, crate::accel::wide::MAX_NODES);
+    }
+
+    /// [`Self::build_accel`] with at most `max_wide_nodes` wide nodes (fewer than
+    /// [`crate::accel::wide::MAX_NODES`] in tests, which cannot build meshes that large).
+    pub(crate) fn build_accel_within(&mut self, accel: Accel, max_wide_nodes: usize) {
+        self.stats.binary_fallback = false;
         let (accel, sah_cost) = match accel {
             Accel::None => (MeshAccel::None, 0.0),
             Accel::Aabb => (MeshAccel::Aabb, 0.0),
@@ -373,9 +397,17 @@ impl TriangleMesh {
                 let bvh = Bvh::build_sah_in(&valid, |i| self.triangle_box(i), &mut storage);
                 // PERF: the wide tree's cost comes free from the collapse; the binary
                 // tree's took a pass over it (~1 ms of the build).
-                let wide = WideBvh::from_bvh_in(&bvh, self, storage);
-                let cost = wide.sah_cost();
-                (MeshAccel::Wide(wide), cost)
+                match WideBvh::from_bvh_in(&bvh, self, storage, max_wide_nodes) {
+                    Ok(wide) => {
+                        let cost = wide.sah_cost();
+                        (MeshAccel::Wide(wide), cost)
+                    }
+                    Err(crate::accel::wide::TooLarge) => {
+                        self.stats.binary_fallback = true;
+                        let cost = bvh.sah_cost();
+                        (MeshAccel::Bvh(bvh), cost)
+                    }
+                }
             }
         };
         self.accel = accel;

@@ -412,6 +412,7 @@ impl SceneDescription {
         let mut notes: Vec<String> = loaded.warnings.iter().map(|w| format!("{name}: {w}")).collect();
         let mut m = loaded.mesh;
         finish_mesh(&mut m, shading, triangle_test, accel);
+        notes.extend(m.stats().warning().map(|w| format!("{name}: {w}")));
         if matches!(source, MeshSource::File(_)) && m.stats().duplicates > 0 {
             notes.push(format!("{name}: {} duplicate triangles are hit as the first of each", m.stats().duplicates));
         }

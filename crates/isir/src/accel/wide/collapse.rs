@@ -145,6 +145,11 @@ pub(super) struct Collapse {
     pub(super) nodes: Vec<Node8>,
     pub(super) blocks: Vec<[u32; 4]>,
     pub(super) depth: usize,
+    /// At most this many nodes ([`MAX_NODES`], or fewer in tests).
+    pub(super) max_nodes: usize,
+    /// Set when the tree needed more nodes than `max_nodes` or more blocks than a leaf
+    /// code can number: the codes are then wrong and the tree is dropped.
+    pub(super) too_large: bool,
 }
 
 impl Collapse {
@@ -152,18 +157,29 @@ impl Collapse {
     /// `self.nodes` and its leaves' triangle numbers, four per block, to `self.blocks`.
     /// Returns its code.
     pub(super) fn convert(&mut self, bvh: &Bvh, plan: &Plan, index: usize, depth: usize) -> u32 {
+        if self.too_large {
+            return EMPTY;
+        }
         if plan.is_leaf(bvh, index) {
             let (first, count) = subtree_prims(bvh, index);
             let prims = &bvh.prim_indices[first as usize..(first + count) as usize];
             let first = self.blocks.len() as u32;
             let count = prims.len().div_ceil(4);
-            assert!(count <= MAX_BLOCKS && first <= FIRST_MASK, "leaf too large for the wide layout");
+            assert!(count <= MAX_BLOCKS, "the plan makes leaves of at most {MAX_BLOCKS} blocks");
+            if first > FIRST_MASK {
+                self.too_large = true;
+                return EMPTY;
+            }
             self.blocks.extend(prims.chunks(4).map(|chunk| {
                 let mut b = [EMPTY; 4];
                 b[..chunk.len()].copy_from_slice(chunk);
                 b
             }));
             return LEAF | ((count as u32 - 1) << BLOCKS_SHIFT) | first;
+        }
+        if self.nodes.len() >= self.max_nodes {
+            self.too_large = true;
+            return EMPTY;
         }
         self.depth = self.depth.max(depth);
         let (mut kids, mut n) = ([0usize; 8], 0);
@@ -186,8 +202,6 @@ impl Collapse {
             let next = next_code(&self.nodes, codes[i]);
             self.nodes[slot].set(lane, &bvh.nodes[kids[i]].aabb(), codes[i], next);
         }
-        let code = slot * std::mem::size_of::<Node8>();
-        assert!(code < LEAF as usize, "too many wide nodes for 31-bit node offsets");
-        code as u32
+        (slot * std::mem::size_of::<Node8>()) as u32 // below LEAF: `max_nodes` is at most MAX_NODES
     }
 }

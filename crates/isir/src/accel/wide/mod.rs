@@ -54,6 +54,22 @@ pub(crate) const BLOCKS_SHIFT: u32 = 28;
 pub(crate) const FIRST_MASK: u32 = (1 << BLOCKS_SHIFT) - 1;
 /// Leaves hold at most this many blocks of four triangles.
 const MAX_BLOCKS: usize = 8;
+/// At most this many wide nodes in a tree: inner codes are byte offsets below `LEAF`,
+/// 8,388,608 nodes of 256 bytes (about 175 million triangles).
+pub const MAX_NODES: usize = LEAF as usize / std::mem::size_of::<Node8>();
+
+/// A binary BVH too large to collapse into a [`WideBvh`]: more than [`MAX_NODES`] wide
+/// nodes, or more than 2^28 blocks of four triangles.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TooLarge;
+
+impl std::fmt::Display for TooLarge {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "the wide BVH holds at most {MAX_NODES} nodes (about 175 million triangles)")
+    }
+}
+
+impl std::error::Error for TooLarge {}
 /// Traversal stack entries: at most seven pushes per level.
 pub(crate) const STACK_SIZE: usize = stack_entries(crate::accel::bvh::STACK_SIZE);
 /// The stack of trees at most 16 wide nodes deep (`7 · 16 + 8` entries), nearly every
@@ -264,9 +280,12 @@ pub struct WideBvh {
 
 impl WideBvh {
     /// Collapse a binary BVH over `mesh`'s triangles.
-    #[must_use]
-    pub fn from_bvh(bvh: &Bvh, mesh: &impl Triangles) -> WideBvh {
-        WideBvh::from_bvh_in(bvh, mesh, Vec::new())
+    ///
+    /// # Errors
+    /// [`TooLarge`] when the tree needs more than [`MAX_NODES`] wide nodes (a mesh of
+    /// about 175 million triangles or more): trace the binary BVH then.
+    pub fn from_bvh(bvh: &Bvh, mesh: &impl Triangles) -> Result<WideBvh, TooLarge> {
+        WideBvh::from_bvh_in(bvh, mesh, Vec::new(), MAX_NODES)
     }
 
     /// Room for the blocks of a tree of `triangles` triangles (an estimate: three to a
@@ -278,8 +297,9 @@ impl WideBvh {
 
     /// [`WideBvh::from_bvh`] with the blocks written into `storage` (its capacity reused,
     /// grown if short): the memory the SAH build's records have faulted in
-    /// ([`Bvh::build_sah_in`]).
-    pub(crate) fn from_bvh_in(bvh: &Bvh, mesh: &impl Triangles, storage: Vec<Tri4>) -> WideBvh {
+    /// ([`Bvh::build_sah_in`]); at most `max_nodes` nodes (at most [`MAX_NODES`]; fewer
+    /// in tests, which cannot build a tree that large).
+    pub(crate) fn from_bvh_in(bvh: &Bvh, mesh: &impl Triangles, storage: Vec<Tri4>, max_nodes: usize) -> Result<WideBvh, TooLarge> {
         use rayon::prelude::*;
         let watertight = mesh.test() == TriangleTest::Watertight;
         let mut w = WideBvh {
@@ -293,7 +313,7 @@ impl WideBvh {
             interleave: Interleave::Auto,
         };
         if bvh.nodes.is_empty() {
-            return w;
+            return Ok(w);
         }
         // The tree first, with the triangle numbers of every block; then the blocks, on
         // every core. PERF: gathering the vertices (random reads) was most of the
@@ -301,7 +321,11 @@ impl WideBvh {
         // subtrees in parallel was slower (one holds 70% of the nodes, and joining the
         // parts copies them).
         // On huge pages, as Embree's trees (see `accel::memory`).
-        let mut c = Collapse { nodes: crate::accel::memory::vec_on_huge_pages(bvh.nodes.len() / 4 + 1), ..Collapse::default() };
+        let mut c = Collapse {
+            nodes: crate::accel::memory::vec_on_huge_pages((bvh.nodes.len() / 4 + 1).min(max_nodes)),
+            max_nodes: max_nodes.min(MAX_NODES),
+            ..Collapse::default()
+        };
         c.blocks.reserve(bvh.prim_indices.len() / 3 + 1);
         let plan = Plan::new(bvh);
         w.sah_cost = plan.cost / bvh.nodes[0].aabb().half_area().max(f32::MIN_POSITIVE);
@@ -330,6 +354,9 @@ impl WideBvh {
                 crate::accel::memory::populate(tail);
             },
         );
+        if c.too_large {
+            return Err(TooLarge);
+        }
         w.root = root;
         assert!(stack_entries(c.depth) <= STACK_SIZE, "wide BVH too deep ({}) for the traversal stack", c.depth);
         w.depth = c.depth;
@@ -339,7 +366,7 @@ impl WideBvh {
             w.tris = crate::accel::memory::vec_on_huge_pages(c.blocks.len());
         }
         c.blocks.par_iter().with_min_len(1024).map(|prims| Tri4::new(mesh, prims, watertight)).collect_into_vec(&mut w.tris);
-        w
+        Ok(w)
     }
 
     /// The node at byte offset `code` in `nodes`.

@@ -73,7 +73,7 @@ fn the_collapse_builds_the_planned_tree_and_beats_the_greedy_one() {
             crate::math::aabb::Aabb::new(a.min(b).min(c), a.max(b).max(c))
         });
         let plan = Plan::new(&bvh);
-        let w = WideBvh::from_bvh(&bvh, &mesh);
+        let w = WideBvh::from_bvh(&bvh, &mesh).expect("a small tree");
         let root_area = bvh.nodes[0].aabb().half_area();
         let built = wide_sah_cost(&w, root_area);
         assert!((built - plan.cost).abs() <= 1e-4 * plan.cost, "{n} triangles: built {built}, planned {}", plan.cost);
@@ -202,8 +202,9 @@ fn records_in_the_blocks_storage_give_the_same_tree() {
             let [a, b, c] = mesh.triangle_vertices(i);
             crate::math::aabb::Aabb::new(a.min(b).min(c), a.max(b).max(c))
         };
-        let want = bits(&WideBvh::from_bvh(&Bvh::build_sah(&valid, box_of), &mesh));
-        let earlier = WideBvh::from_bvh(&Bvh::build_sah(&(0..n as u32).rev().collect::<Vec<_>>(), box_of), &mesh).tris;
+        let want = bits(&WideBvh::from_bvh(&Bvh::build_sah(&valid, box_of), &mesh).expect("a small tree"));
+        let earlier =
+            WideBvh::from_bvh(&Bvh::build_sah(&(0..n as u32).rev().collect::<Vec<_>>(), box_of), &mesh).expect("a small tree").tris;
         for (label, storage) in [
             ("the mesh build's", WideBvh::block_storage(valid.len())),
             ("empty", Vec::new()),
@@ -213,10 +214,67 @@ fn records_in_the_blocks_storage_give_the_same_tree() {
             let mut storage = storage;
             let bvh = Bvh::build_sah_in(&valid, box_of, &mut storage);
             assert!(storage.is_empty(), "{label}: the storage is left empty");
-            let got = bits(&WideBvh::from_bvh_in(&bvh, &mesh, storage));
+            let got = bits(&WideBvh::from_bvh_in(&bvh, &mesh, storage, MAX_NODES).expect("a small tree"));
             assert!(got == want, "{n} triangles, {label} storage: another tree");
         }
     }
+}
+
+/// A tree needing more wide nodes than its limit is refused whole ([`TooLarge`]), never
+/// cut or wrongly numbered; at exactly the limit it is the same tree. The real limit
+/// keeps every inner code a byte offset below `LEAF`.
+#[test]
+fn a_tree_over_the_node_limit_is_refused() {
+    assert!(MAX_NODES * std::mem::size_of::<Node8>() <= LEAF as usize && MAX_NODES >= 8_000_000);
+    let mesh = random_mesh(20_000, 8);
+    let valid: Vec<u32> = (0..20_000).filter(|i| i % 50 != 0).collect();
+    let bvh = Bvh::build_sah(&valid, |i| {
+        let [a, b, c] = mesh.triangle_vertices(i);
+        crate::math::aabb::Aabb::new(a.min(b).min(c), a.max(b).max(c))
+    });
+    let full = WideBvh::from_bvh(&bvh, &mesh).expect("a small tree");
+    let n = full.node_count();
+    assert!(n > 100, "{n} nodes");
+    let exact = WideBvh::from_bvh_in(&bvh, &mesh, Vec::new(), n).expect("the limit holds the tree");
+    assert_eq!((exact.root, exact.node_count(), exact.tris.len()), (full.root, n, full.tris.len()));
+    for limit in [0, 1, n / 2, n - 1] {
+        assert_eq!(WideBvh::from_bvh_in(&bvh, &mesh, Vec::new(), limit).err(), Some(TooLarge), "limit {limit}");
+    }
+    assert!(TooLarge.to_string().contains("8388608 nodes"), "{TooLarge}");
+}
+
+/// A mesh whose wide tree would be too large is traced by its binary SAH tree: the same
+/// hits, the fallback in its figures and a warning; a rebuild (as `remove_overlaps`
+/// does) asks for `bvh-sah` again.
+#[test]
+fn a_mesh_too_large_for_the_wide_tree_falls_back_to_the_binary_tree() {
+    let mut wide = random_mesh(5_000, 11);
+    wide.build_accel(Accel::BvhSah);
+    assert!(matches!(wide.accel(), MeshAccel::Wide(_)) && !wide.stats().binary_fallback && wide.stats().warning().is_none());
+    let mut binary = random_mesh(5_000, 11);
+    binary.build_accel_within(Accel::BvhSah, 10);
+    let MeshAccel::Bvh(bvh) = binary.accel() else { panic!("a binary tree") };
+    let stats = binary.stats();
+    assert!(stats.binary_fallback && stats.nodes == bvh.nodes.len() && stats.sah_cost == bvh.sah_cost());
+    let warning = stats.warning().expect("a warning");
+    assert!(warning.contains("5000 triangles") && warning.contains("binary SAH BVH"), "{warning}");
+    let mut rng = rand_pcg::Pcg32::seed_from_u64(12);
+    let (mut hits, mut blocked) = (0, 0);
+    for _ in 0..2_000 {
+        let o = Vec3::new(rng.random_range(-12.0..12.0), rng.random_range(-12.0..12.0), rng.random_range(-12.0..12.0));
+        let d = Vec3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0));
+        let ray = Ray::new(o, d);
+        let t_max = rng.random_range(1.0..30.0);
+        let (want, got) = (wide.intersect(&ray, 0.0, t_max), binary.intersect(&ray, 0.0, t_max));
+        assert_eq!(got.map(|h| (h.t, h.u, h.v, h.prim)), want.map(|h| (h.t, h.u, h.v, h.prim)), "{ray:?}");
+        assert_eq!(binary.occluded(&ray, 0.0, t_max), want.is_some());
+        hits += usize::from(want.is_some());
+        blocked += usize::from(binary.occluded(&ray, 0.0, t_max));
+    }
+    assert!(hits > 200 && hits < 1_900 && blocked == hits, "{hits} hits, {blocked} occluded");
+    // A rebuild within the real limit gives the wide tree back.
+    binary.build_accel(Accel::BvhSah);
+    assert!(matches!(binary.accel(), MeshAccel::Wide(_)) && !binary.stats().binary_fallback);
 }
 
 /// Rays for the batch tests: from around and inside the cube of [`random_mesh`], with
