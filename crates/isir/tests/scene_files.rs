@@ -44,7 +44,7 @@ fn the_documented_example_renders_as_written() {
     let file = scenes::load_scene_file(&path).unwrap();
     let d = &file.description;
     assert_eq!((file.width, file.height, d.spp), (Some(600), Some(400), 16));
-    assert_eq!(d.integrator, isir::Integrator::DirectLighting { light_samples: 8 });
+    assert_eq!(d.integrator, isir::Integrator::Path { light_samples: 8, max_depth: 5 });
     assert_eq!(d.display, isir::Display::Srgb);
     assert_eq!((d.objects.len(), d.materials.len(), d.lights.len()), (3, 4, 2));
     assert!(matches!(d.objects[2].shape, isir::scenes::ShapeDesc::MeshInstance { .. }));
@@ -113,6 +113,73 @@ fn errors_name_the_file_line_and_column_and_suggest_the_nearest_word() {
     for (text, place, hint) in cases {
         let e = parse_scene(Path::new("s.toml"), &text).unwrap_err().to_string();
         assert!(e.contains(place) && e.contains(hint), "expected '{place}' and '{hint}' in: {e}");
+        assert_eq!(e.lines().count(), 1, "{e}");
+    }
+}
+
+/// What `render` or the CLI would refuse, or render as nonsense, is refused with its line
+/// (so `isir check` says so too): the render numbers, the camera, each material, object
+/// and light. A bounce limit of billions ran a mirror corridor out of memory.
+#[test]
+fn values_out_of_range_are_refused_with_their_line() {
+    let ok = "[render]\nspp = 4\n\n[camera]\nfovy = 50\n\n[materials]\nm = { type = \"transparent\", ior = 1.5 }\n\n\
+              [[objects]]\ntype = \"sphere\"\nradius = 1\nmaterial = \"m\"\n\n[[lights]]\ntype = \"point\"\nposition = [0, 2, 0]\npower = 10\n";
+    if let Err(e) = parse_scene(Path::new("s.toml"), ok) {
+        panic!("{e}");
+    }
+    let cases = [
+        ("spp = 4", "spp = 0", "s.toml:2:7", "spp 0: must be at least 1"),
+        ("spp = 4", "light_samples = 0", "s.toml:2:17", "light_samples 0: must be at least 1"),
+        ("spp = 4", "max_depth = 4000000000", "s.toml:2:13", "max_depth 4000000000: must be between 1 and 256"),
+        ("spp = 4", "max_depth = 0", "s.toml:2:13", "must be between 1 and 256"),
+        ("spp = 4", "width = 0", "s.toml:2:9", "width and height must be at least 1"),
+        ("spp = 4", "width = 100000\nheight = 100000", "s.toml:2:9", "more than the 268435456"),
+        ("fovy = 50", "fovy = 0", "s.toml:4:1", "camera: fovy 0 must be between 0 and 180"),
+        ("ior = 1.5", "ior = nan", "s.toml:8:5", "material `m`: ior NaN must be finite and above 0"),
+        (
+            "type = \"transparent\", ior = 1.5",
+            "type = \"cook-torrance\", roughness = 0",
+            "s.toml:8:",
+            "roughness 0 must be finite and above 0",
+        ),
+        (
+            "type = \"transparent\", ior = 1.5",
+            "type = \"cook-torrance\", metalness = 2",
+            "s.toml:8:",
+            "metalness 2 must be between 0 and 1",
+        ),
+        (
+            "type = \"transparent\", ior = 1.5",
+            "type = \"lambert\", color = [1, -1, 1]",
+            "s.toml:8:",
+            "color [1, -1, 1] must be finite and not negative",
+        ),
+        (
+            "type = \"transparent\", ior = 1.5",
+            "type = \"plastic\", shininess = inf",
+            "s.toml:8:",
+            "shininess inf must be finite and at least 0",
+        ),
+        ("radius = 1", "radius = 0", "s.toml:10:1", "object 'object1': a sphere needs a finite centre and a positive radius"),
+        (
+            "type = \"sphere\"\nradius = 1",
+            "type = \"plane\"\nnormal = [0, 1e-30, 0]",
+            "s.toml:10:1",
+            "a plane's normal [0.0, 1e-30, 0.0] cannot be normalised",
+        ),
+        ("power = 10", "power = -5", "s.toml:15:1", "light 1: power -5 and colour [1, 1, 1] must not be negative"),
+        (
+            "type = \"point\"\nposition = [0, 2, 0]",
+            "type = \"quad\"\ncorner = [0, 2, 0]\nu = [0, 0, 0]\nv = [1, 0, 0]",
+            "s.toml:15:1",
+            "span no area",
+        ),
+    ];
+    for (from, to, place, message) in cases {
+        assert!(ok.contains(from), "{from}");
+        let text = ok.replacen(from, to, 1);
+        let e = parse_scene(Path::new("s.toml"), &text).unwrap_err().to_string();
+        assert!(e.contains(place) && e.contains(message), "expected '{place}' and '{message}' in: {e}");
         assert_eq!(e.lines().count(), 1, "{e}");
     }
 }

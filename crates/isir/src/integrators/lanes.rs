@@ -15,7 +15,7 @@
 use super::direct::{quad_light, with_quad_scratch};
 use super::path::{defers_shadow, light_samplers, DeferredShadow, Path};
 use super::shadow::{divided, live_mask, LambertLanes, LightLanes, QuadBatch, BATCH, BATCH_FROM};
-use super::{whitted, Integrator, RayCounters};
+use super::{whitted, Integrator, RayCounters, MAX_DEPTH_LIMIT};
 use crate::geometry::{Hit, HitRows};
 use crate::kept::{Kept, Slot};
 use crate::lights::{Light, LightSampler};
@@ -42,7 +42,7 @@ impl Integrator {
             // The hits and their rows written where the bounces keep them.
             let (mut hits, mut rows) = ([None; LANES], HitRows::default());
             scene.lane_hit_rows_into(rays, &closest, n, &mut hits, &mut rows);
-            return path_lanes(scene, rays, &mut hits, &mut rows, light_samples, max_depth, samplers, counters, out);
+            return path_lanes(scene, rays, &mut hits, &mut rows, light_samples, max_depth.min(MAX_DEPTH_LIMIT), samplers, counters, out);
         }
         let mut hits = [None; LANES];
         scene.lane_hits_into(rays, &closest, n, &mut hits);
@@ -58,6 +58,7 @@ impl Integrator {
                 } else {
                     let diffuse: [Option<Hit>; LANES] = std::array::from_fn(|k| if specular & (1 << k) != 0 { None } else { hits[k] });
                     direct_lanes(scene, rays, &diffuse, light_samples, samplers, counters, out);
+                    let max_depth = max_depth.min(MAX_DEPTH_LIMIT);
                     whitted::li_at_hits(scene, rays, &hits, specular, light_samples, max_depth, samplers, counters, out);
                 }
             }

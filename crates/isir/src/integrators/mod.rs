@@ -26,7 +26,8 @@ pub use whitted::{specular_split, SpecularSplit, WHITTED_MIN_WEIGHT};
 pub const DEFAULT_MAX_DEPTH: u32 = 5;
 
 /// The largest `max_depth` accepted: the Whitted recursion is that deep at most (on the
-/// worker's stack), and a path that long carries nothing visible.
+/// worker's stack), and a path that long carries nothing visible. An integrator built
+/// with a larger one renders with this one (scene files and the CLI refuse it).
 pub const MAX_DEPTH_LIMIT: u32 = 256;
 
 /// Rays traced, by kind.
@@ -178,10 +179,10 @@ impl Integrator {
             Integrator::RayCast => ray_cast::li(scene, ray, t_min, t_max, counters),
             Integrator::DirectLighting { light_samples } => direct::li(scene, ray, t_min, t_max, light_samples, sampler, counters),
             Integrator::Whitted { light_samples, max_depth } => {
-                whitted::li(scene, ray, t_min, t_max, light_samples, max_depth, sampler, counters)
+                whitted::li(scene, ray, t_min, t_max, light_samples, max_depth.min(MAX_DEPTH_LIMIT), sampler, counters)
             }
             Integrator::Path { light_samples, max_depth } => {
-                path::li(scene, ray, t_min, t_max, light_samples, max_depth, sampler, counters)
+                path::li(scene, ray, t_min, t_max, light_samples, max_depth.min(MAX_DEPTH_LIMIT), sampler, counters)
             }
         }
     }

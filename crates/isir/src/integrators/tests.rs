@@ -382,3 +382,26 @@ fn names_light_samples_and_depths_carry_over() {
     assert_eq!(Integrator::DirectLighting { light_samples: 2 }.with_max_depth(9), Integrator::DirectLighting { light_samples: 2 });
     assert_eq!(WHITTED.name(), "whitted");
 }
+
+/// An integrator built with a bounce limit beyond [`MAX_DEPTH_LIMIT`] renders as with the
+/// limit: between two facing mirrors, where every bounce goes on, a limit of billions
+/// ran Whitted's tree out of memory and the path tracer for hours.
+#[test]
+fn a_bounce_limit_beyond_the_largest_renders_as_the_largest() {
+    let s = scene(
+        vec![
+            (plane(Vec3::new(0.0, 0.0, 5.0), -Vec3::Z), Material::Mirror),
+            (plane(Vec3::new(0.0, 0.0, -5.0), Vec3::Z), Material::Mirror),
+            (plane(Vec3::new(0.0, -2.0, 0.0), Vec3::Y), Material::Lambert(GREY)),
+        ],
+        vec![Light::Point { position: Vec3::new(0.0, 1.0, 0.0), color: WHITE, power: 10.0 }],
+        BLACK,
+    );
+    let camera = CameraDesc::new(Vec3::ZERO, Vec3::new(0.0, -0.3, 1.0));
+    for make in [|d| Integrator::Whitted { light_samples: 1, max_depth: d }, |d| Integrator::Path { light_samples: 1, max_depth: d }] {
+        let (huge, stats) = render_seeded(&s, &camera, make(u32::MAX), 6, 4, 2, 3);
+        let (limit, _) = render_seeded(&s, &camera, make(MAX_DEPTH_LIMIT), 6, 4, 2, 3);
+        assert_eq!(huge.pixels, limit.pixels, "{:?}", make(0));
+        assert!(stats.rays.secondary > 0 && huge.pixels.iter().any(|p| *p != BLACK), "{:?}: the mirrors reflect", make(0));
+    }
+}

@@ -67,6 +67,30 @@ pub enum Light {
 }
 
 impl Light {
+    /// What a light must be to light a scene: finite points, a finite colour and power
+    /// that are not negative, and for a quad, edges spanning an area.
+    ///
+    /// # Errors
+    /// Which of those fails, in words.
+    pub fn check(&self) -> std::result::Result<(), String> {
+        let (points, color, power) = match *self {
+            Light::Point { position, color, power } => (vec![position], color, power),
+            Light::Quad { corner, u, v, color, power } => (vec![corner, corner + u, corner + v, corner + u + v], color, power),
+        };
+        if !points.iter().all(|p| p.is_finite()) || !power.is_finite() {
+            return Err("position and power must be finite".into());
+        }
+        if power < 0.0 || !color.is_finite() || color.min_element() < 0.0 {
+            return Err(format!("power {power} and colour {color} must not be negative"));
+        }
+        if let Light::Quad { u, v, .. } = *self {
+            if !u.cross(v).length_squared().is_normal() {
+                return Err(format!("the quad's edges u {u} and v {v} span no area"));
+            }
+        }
+        Ok(())
+    }
+
     /// True for lights with an area (sampled `nbLightSamples` times).
     #[must_use]
     pub fn is_surface(&self) -> bool {

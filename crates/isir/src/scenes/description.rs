@@ -107,6 +107,12 @@ fn check_extent(what: &str, magnitude: f32) -> Result<()> {
     )))
 }
 
+/// A mesh's loading error, said of the object that names it: the file alone does not say
+/// which object of the scene, nor that its path is the scene file's (relative to it).
+fn in_object(what: &str, e: Error) -> Error {
+    Error::Scene(format!("{what}: {e}"))
+}
+
 /// Where a mesh comes from.
 #[derive(Clone, Debug, PartialEq)]
 pub enum MeshSource {
@@ -142,6 +148,27 @@ pub enum ShapeDesc {
         /// Where the mesh stands.
         transform: Transform,
     },
+}
+
+impl ShapeDesc {
+    /// What a sphere or a plane must be to be traced: a finite centre and a positive
+    /// radius; a finite point and a normal that normalises. (Meshes and implicit surfaces
+    /// are checked as they are built.)
+    ///
+    /// # Errors
+    /// Which of those fails, in words.
+    pub fn check(&self) -> std::result::Result<(), String> {
+        match self {
+            ShapeDesc::Sphere(s) if !(s.center.is_finite() && s.radius.is_finite() && s.radius > 0.0) => {
+                Err(format!("a sphere needs a finite centre and a positive radius, not centre {} and radius {}", s.center, s.radius))
+            }
+            ShapeDesc::Plane(p) if !(p.point.is_finite() && p.normal.is_finite() && p.normal.length_squared().is_normal()) => Err(format!(
+                "a plane needs a finite point and a finite normal long enough to normalise, not point {} and normal {}",
+                p.point, p.normal
+            )),
+            _ => Ok(()),
+        }
+    }
 }
 
 /// Scale, then rotate (degrees about x, then y, then z, each about the world axis), then
@@ -243,13 +270,11 @@ impl SceneDescription {
     pub fn build_with(&self, accel: Accel, triangle_test: TriangleTest) -> Result<Scene> {
         self.camera.validate()?;
         for (i, light) in self.lights.iter().enumerate() {
-            let (points, power) = match *light {
-                Light::Point { position, power, .. } => (vec![position], power),
-                Light::Quad { corner, u, v, power, .. } => (vec![corner, corner + u, corner + v, corner + u + v], power),
+            light.check().map_err(|why| Error::Scene(format!("light {}: {why}", i + 1)))?;
+            let points = match *light {
+                Light::Point { position, .. } => vec![position],
+                Light::Quad { corner, u, v, .. } => vec![corner, corner + u, corner + v, corner + u + v],
             };
-            if !points.iter().all(|p| p.is_finite()) || !power.is_finite() {
-                return Err(Error::Scene(format!("light {}: position and power must be finite", i + 1)));
-            }
             check_extent(&format!("light {}", i + 1), points.iter().map(|p| p.abs().max_element()).fold(0.0, f32::max))?;
         }
         let mut materials: Vec<Material> = vec![Material::Color(WHITE)]; // the default
@@ -275,18 +300,13 @@ impl SceneDescription {
         for desc in &self.objects {
             let chosen = lookup(&desc.material)?;
             let what = format!("object '{}'", desc.name);
+            desc.shape.check().map_err(|why| Error::Scene(format!("{what}: {why}")))?;
             let (geometry, mats) = match &desc.shape {
                 ShapeDesc::Sphere(s) => {
-                    if !(s.center.is_finite() && s.radius.is_finite() && s.radius > 0.0) {
-                        return Err(Error::Scene(format!("{what}: a sphere needs a finite centre and a positive radius")));
-                    }
                     check_extent(&what, s.center.abs().max_element() + s.radius)?;
                     (Geometry::Sphere(*s), vec![chosen.unwrap_or(0)])
                 }
                 ShapeDesc::Plane(p) => {
-                    if !(p.point.is_finite() && p.normal.is_finite() && p.normal != Vec3::ZERO) {
-                        return Err(Error::Scene(format!("{what}: a plane needs a finite point and a non-zero normal")));
-                    }
                     check_extent(&what, p.point.abs().max_element())?;
                     (Geometry::Plane(*p), vec![chosen.unwrap_or(0)])
                 }
@@ -303,7 +323,8 @@ impl SceneDescription {
                 ShapeDesc::MeshInstance { source, shading, transform } => {
                     let key = format!("{source:?} {shading:?}");
                     if !shared.contains_key(&key) {
-                        let (mesh, file_mats, notes) = self.prepare_mesh(&desc.name, source, *shading, accel, triangle_test)?;
+                        let (mesh, file_mats, notes) =
+                            self.prepare_mesh(&desc.name, source, *shading, accel, triangle_test).map_err(|e| in_object(&what, e))?;
                         warnings.extend(notes);
                         shared.insert(key.clone(), (std::sync::Arc::new(mesh), file_mats, None));
                     }
@@ -322,7 +343,7 @@ impl SceneDescription {
                 }
                 ShapeDesc::Mesh { source, shading } => {
                     let loaded = match source {
-                        MeshSource::File(path) => match mesh::load_mesh_file(path)? {
+                        MeshSource::File(path) => match mesh::load_mesh_file(path).map_err(|e| in_object(&what, e))? {
                             mesh::MeshFile::One(m) => *m,
                             mesh::MeshFile::Instances(meshes, placements) => {
                                 // glTF nodes sharing a mesh: each mesh built once, each node an instance.

@@ -6,7 +6,7 @@
 use super::description::{CameraDesc, MeshSource, ObjectDesc, SceneDescription, ShapeDesc, Transform};
 use crate::error::{Error, Result};
 use crate::geometry::{Plane, Sdf, Shading, Sphere};
-use crate::integrators::{Integrator, DEFAULT_MAX_DEPTH};
+use crate::integrators::{Integrator, DEFAULT_MAX_DEPTH, MAX_DEPTH_LIMIT};
 use crate::io::image::Display;
 use crate::io::input::{self, ReadLimits};
 use crate::lights::Light;
@@ -34,25 +34,24 @@ pub struct SceneFile {
 struct File {
     #[serde(default)]
     render: RenderSection,
+    camera: Option<Spanned<CameraSection>>,
     #[serde(default)]
-    camera: CameraSection,
+    materials: BTreeMap<String, Spanned<MaterialSpec>>,
     #[serde(default)]
-    materials: BTreeMap<String, MaterialSpec>,
+    objects: Vec<Spanned<ObjectSpec>>,
     #[serde(default)]
-    objects: Vec<ObjectSpec>,
-    #[serde(default)]
-    lights: Vec<LightSpec>,
+    lights: Vec<Spanned<LightSpec>>,
 }
 
 #[derive(Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 struct RenderSection {
-    width: Option<u32>,
-    height: Option<u32>,
-    spp: Option<u32>,
+    width: Option<Spanned<u32>>,
+    height: Option<Spanned<u32>>,
+    spp: Option<Spanned<u32>>,
     integrator: Option<Spanned<String>>,
-    light_samples: Option<u32>,
-    max_depth: Option<u32>,
+    light_samples: Option<Spanned<u32>>,
+    max_depth: Option<Spanned<u32>>,
     display: Option<Spanned<String>>,
     background: Option<[f32; 3]>,
 }
@@ -315,6 +314,42 @@ fn default_power() -> f32 {
     100.0
 }
 
+/// What a scene file's material must be: finite colours that are not negative, and
+/// parameters in their ranges. (Built from Rust, such a material renders: its NaN
+/// samples are dropped and counted.)
+fn material_check(m: &Material) -> std::result::Result<(), String> {
+    let colour = |what: &str, c: Vec3| {
+        if c.is_finite() && c.min_element() >= 0.0 {
+            Ok(())
+        } else {
+            Err(format!("{what} {c} must be finite and not negative"))
+        }
+    };
+    let within = |what: &str, x: f32, lo: f32, hi: f32, lo_open: bool| {
+        let above = if lo_open { x > lo } else { x >= lo };
+        match (above && x <= hi, hi == f32::MAX, lo_open) {
+            (true, _, _) => Ok(()),
+            (false, true, true) => Err(format!("{what} {x} must be finite and above {lo}")),
+            (false, true, false) => Err(format!("{what} {x} must be finite and at least {lo}")),
+            (false, false, _) => Err(format!("{what} {x} must be between {lo} and {hi}")),
+        }
+    };
+    match *m {
+        Material::Color(c) | Material::Lambert(c) => colour("color", c),
+        Material::Textured { tint, .. } => colour("color", tint),
+        Material::Matte { kd, sigma } => colour("color", kd).and(within("sigma", sigma, 0.0, f32::MAX, false)),
+        Material::Plastic { kd, ks, shininess, .. } => {
+            colour("color", kd).and(colour("specular", ks)).and(within("shininess", shininess, 0.0, f32::MAX, false))
+        }
+        Material::CookTorrance { kd, f0, roughness, metalness } => colour("color", kd)
+            .and(colour("f0", f0))
+            .and(within("roughness", roughness, 0.0, f32::MAX, true).map_err(|e| format!("{e} (a mirror is `type = \"mirror\"`)")))
+            .and(within("metalness", metalness, 0.0, 1.0, false)),
+        Material::Mirror => Ok(()),
+        Material::Transparent { ior } => within("ior", ior, 0.0, f32::MAX, true),
+    }
+}
+
 /// The levenshtein distance of two short words.
 fn distance(a: &str, b: &str) -> usize {
     let b: Vec<char> = b.chars().collect();
@@ -409,7 +444,8 @@ pub fn parse_scene(path: &Path, text: &str) -> Result<SceneFile> {
     let dir = path.parent().unwrap_or(Path::new(""));
     let c = |a: [f32; 3]| Vec3::from(a);
     let name = path.file_stem().map_or_else(|| "scene".to_string(), |s| s.to_string_lossy().into_owned());
-    let cam = &file.camera;
+    let default_camera = CameraSection::default();
+    let cam = file.camera.as_ref().map_or(&default_camera, Spanned::get_ref);
     let mut camera = CameraDesc::new(c(cam.position.unwrap_or([0.0, 0.0, 0.0])), c(cam.look_at.unwrap_or([0.0, 0.0, 1.0])));
     if let Some(u) = cam.up {
         camera.up = c(u);
@@ -420,7 +456,23 @@ pub fn parse_scene(path: &Path, text: &str) -> Result<SceneFile> {
     let mut d = SceneDescription::new(&name, camera);
     d.summary = format!("scene file {}", path.display());
     let r = &file.render;
-    d.spp = r.spp.unwrap_or(1).max(1);
+    // The numbers `render` and the CLI refuse, refused here with their line (`isir check`
+    // too): a bounce limit of billions ran a mirror corridor out of memory.
+    let value = |v: &Option<Spanned<u32>>| v.as_ref().map(|v| *v.get_ref());
+    for (key, v) in [("spp", &r.spp), ("light_samples", &r.light_samples)] {
+        if let Some(v) = v.as_ref().filter(|v| *v.get_ref() == 0) {
+            return Err(at(Some(v.span()), format!("{key} 0: must be at least 1")));
+        }
+    }
+    if let Some(v) = r.max_depth.as_ref().filter(|v| !(1..=MAX_DEPTH_LIMIT).contains(v.get_ref())) {
+        let message = format!("max_depth {}: must be between 1 and {MAX_DEPTH_LIMIT} (bounces along a path)", v.get_ref());
+        return Err(at(Some(v.span()), message));
+    }
+    let (width, height) = (value(&r.width), value(&r.height));
+    if let Err(Error::Scene(message)) = crate::io::image::check_size(width.unwrap_or(600), height.unwrap_or(400)) {
+        return Err(at(r.width.as_ref().or(r.height.as_ref()).map(Spanned::span), message));
+    }
+    d.spp = value(&r.spp).unwrap_or(1);
     d.background = r.background.map_or(GREY, c);
     if let Some(display) = &r.display {
         d.display = match display.get_ref().as_str() {
@@ -432,8 +484,8 @@ pub fn parse_scene(path: &Path, text: &str) -> Result<SceneFile> {
             }
         };
     }
-    let light_samples = r.light_samples.unwrap_or(1).max(1);
-    let max_depth = r.max_depth.unwrap_or(DEFAULT_MAX_DEPTH);
+    let light_samples = value(&r.light_samples).unwrap_or(1);
+    let max_depth = value(&r.max_depth).unwrap_or(DEFAULT_MAX_DEPTH);
     d.integrator = match r.integrator.as_ref().map(|s| (s.get_ref().as_str(), s.span())) {
         None | Some(("direct", _)) => Integrator::DirectLighting { light_samples },
         Some(("ray-cast", _)) => Integrator::RayCast,
@@ -445,8 +497,11 @@ pub fn parse_scene(path: &Path, text: &str) -> Result<SceneFile> {
             return Err(at(Some(span), format!("integrator `{other}`: expected one of ray-cast, direct, whitted, path{hint}")));
         }
     };
+    if let Err(Error::Scene(message)) = d.camera.validate() {
+        return Err(at(file.camera.as_ref().map(Spanned::span), message));
+    }
     for (n, m) in &file.materials {
-        let material = match *m {
+        let material = match *m.get_ref() {
             MaterialSpec::Color { color } => Material::Color(c(color)),
             MaterialSpec::Lambert { color } => Material::Lambert(c(color)),
             MaterialSpec::Matte { color, sigma } => Material::Matte { kd: c(color), sigma },
@@ -459,6 +514,9 @@ pub fn parse_scene(path: &Path, text: &str) -> Result<SceneFile> {
             MaterialSpec::Mirror {} => Material::Mirror,
             MaterialSpec::Transparent { ior } => Material::Transparent { ior },
         };
+        if let Err(why) = material_check(&material) {
+            return Err(at(Some(m.span()), format!("material `{n}`: {why}")));
+        }
         d.materials.push((n.clone(), material));
     }
     // Where `key = "value"` is written (serde keeps no spans inside tagged tables).
@@ -484,8 +542,13 @@ pub fn parse_scene(path: &Path, text: &str) -> Result<SceneFile> {
         Err(at(span_of("material", m), format!("material `{m}` is not defined in [materials]{hint}")))
     };
     for (i, o) in file.objects.iter().enumerate() {
-        let (name, shape, material) = match o {
+        let (name, shape, material) = match o.get_ref() {
             ObjectSpec::Plane { name, point, normal, material } => {
+                // The normal as written (`Plane::new` normalises it: too short, it is NaN).
+                if !(c(*normal).is_finite() && c(*normal).length_squared().is_normal()) {
+                    let name = name.clone().unwrap_or_else(|| format!("object{}", i + 1));
+                    return Err(at(Some(o.span()), format!("object '{name}': a plane's normal {normal:?} cannot be normalised")));
+                }
                 (name.clone(), ShapeDesc::Plane(Plane::new(c(*point), c(*normal))), material_ref(material)?)
             }
             ObjectSpec::Sphere { name, center, radius, material } => {
@@ -519,15 +582,23 @@ pub fn parse_scene(path: &Path, text: &str) -> Result<SceneFile> {
                 (name.clone(), shape, material_ref(material)?)
             }
         };
-        d.objects.push(ObjectDesc { name: name.unwrap_or_else(|| format!("object{}", i + 1)), shape, material });
+        let object = ObjectDesc { name: name.unwrap_or_else(|| format!("object{}", i + 1)), shape, material };
+        if let Err(why) = object.shape.check() {
+            return Err(at(Some(o.span()), format!("object '{}': {why}", object.name)));
+        }
+        d.objects.push(object);
     }
-    for l in &file.lights {
-        d.lights.push(match *l {
+    for (i, l) in file.lights.iter().enumerate() {
+        let light = match *l.get_ref() {
             LightSpec::Point { position, color, power } => Light::Point { position: c(position), color: c(color), power },
             LightSpec::Quad { corner, u, v, color, power } => Light::Quad { corner: c(corner), u: c(u), v: c(v), color: c(color), power },
-        });
+        };
+        if let Err(why) = light.check() {
+            return Err(at(Some(l.span()), format!("light {}: {why}", i + 1)));
+        }
+        d.lights.push(light);
     }
-    Ok(SceneFile { description: d, width: r.width, height: r.height })
+    Ok(SceneFile { description: d, width, height })
 }
 
 /// The scene file of a description (what [`parse_scene`] reads back to the same scene),
