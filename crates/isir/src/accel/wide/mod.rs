@@ -70,6 +70,7 @@ impl std::fmt::Display for TooLarge {
 }
 
 impl std::error::Error for TooLarge {}
+
 /// Traversal stack entries: at most seven pushes per level.
 pub(crate) const STACK_SIZE: usize = stack_entries(crate::accel::bvh::STACK_SIZE);
 /// The stack of trees at most 16 wide nodes deep (`7 · 16 + 8` entries), nearly every
