@@ -173,9 +173,9 @@ fn run_embree(
         .spawn()
         .with_context(|| format!("running {}", bin.display()))?;
     // Known to the signal handler while it runs, so that stopping isir stops it too.
-    signal_state().child = Some(child.id());
+    crate::signals::state().child = Some(child.id());
     let out = child.wait_with_output();
-    signal_state().child = None;
+    crate::signals::state().child = None;
     let out = out.with_context(|| format!("running {}", bin.display()))?;
     // Its first line of error (the problem), not the usage page that may follow.
     let stderr = String::from_utf8_lossy(&out.stderr);
@@ -223,50 +223,20 @@ struct WorkDir {
     keep: bool,
 }
 
-/// What a signal must undo: the temporary folder while there is one, the Embree tool
-/// while it runs.
-struct SignalState {
-    dir: Option<PathBuf>,
-    child: Option<u32>,
-}
-
-static SIGNAL_STATE: std::sync::Mutex<SignalState> = std::sync::Mutex::new(SignalState { dir: None, child: None });
-
-fn signal_state() -> std::sync::MutexGuard<'static, SignalState> {
-    SIGNAL_STATE.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
-}
-
-/// On SIGINT, SIGTERM or SIGHUP (once per process; a second call fails, and there is one
-/// bench per process): the running tool stopped, the folder removed, status 130. The
-/// state stays locked to the end, so `WorkDir`'s removal and the tool's start wait.
-fn handle_signals() {
-    let _ = ctrlc::set_handler(|| {
-        let state = signal_state();
-        #[cfg(unix)]
-        if let Some(pid) = state.child.and_then(|p| i32::try_from(p).ok()) {
-            let _ = nix::sys::signal::kill(nix::unistd::Pid::from_raw(pid), nix::sys::signal::Signal::SIGTERM);
-        }
-        if let Some(dir) = &state.dir {
-            std::fs::remove_dir_all(dir).ok();
-        }
-        std::process::exit(130);
-    });
-}
-
 impl WorkDir {
     fn new(keep: Option<&Path>) -> anyhow::Result<Self> {
         match keep {
             Some(p) => {
                 anyhow::ensure!(p.is_dir() || std::fs::symlink_metadata(p).is_err(), "--keep {}: not a directory", p.display());
                 std::fs::create_dir_all(p).with_context(|| format!("--keep {}", p.display()))?;
-                handle_signals();
+                crate::signals::install();
                 Ok(Self { path: p.to_path_buf(), keep: true })
             }
             None => {
                 let t = tempfile::Builder::new().prefix("isir-bench-").tempdir().context("creating a temporary folder")?;
                 let path = t.keep();
-                signal_state().dir = Some(path.clone());
-                handle_signals();
+                crate::signals::state().dir = Some(path.clone());
+                crate::signals::install();
                 Ok(Self { path, keep: false })
             }
         }
@@ -277,7 +247,7 @@ impl Drop for WorkDir {
     fn drop(&mut self) {
         if !self.keep {
             // Removed with the state locked: a signal meanwhile waits for the removal.
-            let mut state = signal_state();
+            let mut state = crate::signals::state();
             state.dir = None;
             std::fs::remove_dir_all(&self.path).ok();
         }
@@ -359,7 +329,11 @@ fn bench_in(
             "--keep {}: {file} there is one of the scene's own files: keep the bench's files in another folder",
             dir.display()
         );
-        Ok(dir.join(file))
+        let path = dir.join(file);
+        // Its temporary file removed if a signal stops the write (the folder `--keep` gives
+        // stays).
+        crate::signals::writing([path.as_path()]);
+        Ok(path)
     };
 
     // ---- The scene's mesh is the one traced; the four ray sets ----

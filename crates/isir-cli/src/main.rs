@@ -5,6 +5,7 @@ mod bench;
 mod check;
 mod info;
 mod render;
+mod signals;
 mod trace;
 
 use clap::{Parser, Subcommand};
@@ -188,6 +189,7 @@ fn clap_error_line(e: &clap::Error) -> String {
 }
 
 fn main() {
+    signals::ignore_file_size_signal();
     let cli = match Cli::try_parse() {
         Ok(c) => c,
         Err(e) => {

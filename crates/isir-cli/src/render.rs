@@ -156,9 +156,9 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     // Every check before any work (the output's directory is writable, too).
     let (width, height) = image_size(&a)?;
     isir::image::check_size(width, height)?;
-    isir::image::check_output_path(&a.output)?;
-    for &aov in &a.aov {
-        isir::image::check_output_path(&aov_path(&a.output, aov))?;
+    let outputs: Vec<PathBuf> = std::iter::once(a.output.clone()).chain(a.aov.iter().map(|&aov| aov_path(&a.output, aov))).collect();
+    for out in &outputs {
+        isir::image::check_output_path(out)?;
     }
     anyhow::ensure!(a.spp != Some(0), "--spp must be at least 1");
     anyhow::ensure!(a.light_samples != Some(0), "--light-samples must be at least 1");
@@ -168,6 +168,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
             "--max-depth {d}: must be between 1 and {MAX_DEPTH_LIMIT} (bounces along a path)"
         );
     }
+    crate::signals::writing(outputs.iter().map(PathBuf::as_path));
     with_threads(a.threads, || render_in_pool(&a, width, height))?
 }
 

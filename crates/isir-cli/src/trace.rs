@@ -90,6 +90,7 @@ pub enum Mode {
 pub fn rays(a: RaysArgs) -> anyhow::Result<()> {
     isir::image::check_size(a.width, a.height)?;
     isir::output::check_writable(&a.output)?;
+    crate::signals::writing([a.output.as_path()]);
     let (desc, scene) = crate::render::build_scene(&a.scene, Accel::BvhSah, isir::triangle::TriangleTest::MollerTrumbore)?;
     warn_all(&scene.warnings);
     let camera = desc.camera.build(a.width as f32 / a.height as f32);
@@ -216,6 +217,7 @@ pub fn trace(a: TraceArgs) -> anyhow::Result<()> {
     );
     if let Some(out) = &a.hits {
         isir::output::check_writable(out)?;
+        crate::signals::writing([out.as_path()]);
     }
     with_threads(a.threads, || trace_in_pool(&a))?
 }
