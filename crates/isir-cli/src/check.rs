@@ -12,6 +12,7 @@ pub struct CheckArgs {
 }
 
 pub fn run(a: CheckArgs) -> anyhow::Result<()> {
+    crate::args::check_scene_file_arg(&a.scene.to_string_lossy())?;
     let file = isir::scenes::load_scene_file(&a.scene)?;
     let d = &file.description;
     let scene = d.build(isir::Accel::BvhSah)?;

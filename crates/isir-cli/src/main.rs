@@ -1,6 +1,7 @@
 //! The `isir` command: render the course's scenes, list them, write and trace ray files,
 //! and benchmark the acceleration structures against Embree.
 
+mod args;
 mod bench;
 mod check;
 mod info;
@@ -101,6 +102,7 @@ pub fn threads_phrase(n: usize) -> String {
 /// A mesh argument: a mesh file (OBJ, PLY or glTF), or the name of a built-in model.
 pub fn load_mesh(arg: &std::path::Path) -> anyhow::Result<isir::obj::LoadedMesh> {
     let name = arg.to_string_lossy();
+    args::check_mesh_arg(&name)?;
     if !arg.exists() {
         if isir::scenes::builtin_models().contains(&name.as_ref()) {
             return Ok(isir::scenes::load_builtin_model(&name)?);

@@ -125,6 +125,7 @@ fn frame(path: &str, desc: &mut SceneDescription, scene: &mut Scene) -> anyhow::
 
 /// A built-in scene by name, or a scene around a mesh file, built on the current pool.
 pub fn build_scene(name: &str, accel: Accel, test: TriangleTest) -> anyhow::Result<(SceneDescription, Scene)> {
+    crate::args::check_scene_arg(name)?;
     if is_scene_file(name) {
         let d = isir::scenes::load_scene_file(std::path::Path::new(name))?.description;
         let scene = d.build_with(accel, test)?;
@@ -148,17 +149,22 @@ pub fn build_scene(name: &str, accel: Accel, test: TriangleTest) -> anyhow::Resu
             frame(name, &mut d, &mut scene)?;
             Ok((d, scene))
         }
+        Err(isir::Error::UnknownScene(_)) => Err(crate::args::unknown_scene(name)),
         Err(e) => Err(e.into()),
     }
 }
 
 pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     // Every check before any work (the output's directory is writable, too).
+    let name = a.scene.as_deref().unwrap_or(isir::scenes::DEFAULT_SCENE);
+    crate::args::check_scene_arg(name)?;
     let (width, height) = image_size(&a)?;
     isir::image::check_size(width, height)?;
     let outputs: Vec<PathBuf> = std::iter::once(a.output.clone()).chain(a.aov.iter().map(|&aov| aov_path(&a.output, aov))).collect();
+    let inputs = crate::args::scene_inputs(name)?;
     for out in &outputs {
         isir::image::check_output_path(out)?;
+        crate::args::check_not_an_input("-o", out, &inputs)?;
     }
     anyhow::ensure!(a.spp != Some(0), "--spp must be at least 1");
     anyhow::ensure!(a.light_samples != Some(0), "--light-samples must be at least 1");

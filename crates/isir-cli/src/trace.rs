@@ -89,7 +89,9 @@ pub enum Mode {
 
 pub fn rays(a: RaysArgs) -> anyhow::Result<()> {
     isir::image::check_size(a.width, a.height)?;
+    crate::args::check_scene_arg(&a.scene)?;
     isir::output::check_writable(&a.output)?;
+    crate::args::check_not_an_input("-o", &a.output, &crate::args::scene_inputs(&a.scene)?)?;
     crate::signals::writing([a.output.as_path()]);
     let (desc, scene) = crate::render::build_scene(&a.scene, Accel::BvhSah, isir::triangle::TriangleTest::MollerTrumbore)?;
     warn_all(&scene.warnings);
@@ -215,8 +217,11 @@ pub fn trace(a: TraceArgs) -> anyhow::Result<()> {
         !(a.packets && a.interleave == Interleave::Always),
         "--packets traces packets of 16: drop --interleave always or --packets"
     );
+    crate::args::check_mesh_arg(&a.mesh.to_string_lossy())?;
     if let Some(out) = &a.hits {
         isir::output::check_writable(out)?;
+        let inputs = [("the mesh".to_string(), a.mesh.clone()), ("the ray file".to_string(), a.rays.clone())];
+        crate::args::check_not_an_input("--hits", out, &inputs)?;
         crate::signals::writing([out.as_path()]);
     }
     with_threads(a.threads, || trace_in_pool(&a))?

@@ -1132,6 +1132,62 @@ fn a_gltf_of_instances_renders_framed() {
     assert!(lit(0..30) && lit(30..60), "both copies in view");
 }
 
+/// An output that is one of the command's inputs is refused before any work, naming both,
+/// and the input is left as it was (found by an audit: `--hits M.obj` replaced the mesh
+/// with hits, `-o M.obj` the mesh with rays).
+#[test]
+fn an_output_that_is_an_input_is_refused_and_the_input_kept() {
+    let dir = tmp("same-file");
+    std::fs::create_dir_all(&dir).unwrap();
+    let mesh = dir.join("m.obj");
+    let mesh_text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+    std::fs::write(&mesh, mesh_text).unwrap();
+    let rays = dir.join("m.rays");
+    let (code, _, err) = isir(&["rays", "tp4-sphere", "--kind", "primary", "-o", rays.to_str().unwrap(), "--width", "4", "--height", "2"]);
+    assert_eq!(code, 0, "{err}");
+    let rays_bytes = std::fs::read(&rays).unwrap();
+    let scene = dir.join("s.toml");
+    std::fs::write(&scene, "[camera]\nposition = [0, 0, -4]\n[[objects]]\ntype = \"mesh\"\nfile = \"m.obj\"\n").unwrap();
+    let (m, r, s) = (mesh.to_str().unwrap(), rays.to_str().unwrap(), scene.to_str().unwrap());
+    // The same file by another path: `./` in it, or a symbolic link to it.
+    let dotted = format!("{}/./m.obj", dir.display());
+    let mut cases: Vec<(Vec<&str>, String)> = vec![
+        (vec!["trace", m, r, "--hits", m], format!("--hits {m}: the same file as the mesh {m}")),
+        (vec!["trace", "uvsphere", r, "--hits", r], format!("--hits {r}: the same file as the ray file {r}")),
+        (vec!["rays", m, "--kind", "primary", "-o", m], format!("-o {m}: the same file as the mesh {m}")),
+        (vec!["rays", m, "--kind", "primary", "-o", &dotted], format!("-o {dotted}: the same file as the mesh {m}")),
+        (vec!["rays", s, "--kind", "primary", "-o", s], format!("-o {s}: the same file as the scene file {s}")),
+    ];
+    let scene_mesh = dir.join("m.obj").display().to_string();
+    cases.push((vec!["rays", s, "--kind", "primary", "-o", m], format!("-o {m}: the same file as the scene's mesh {scene_mesh}")));
+    #[cfg(unix)]
+    let link = dir.join("link.png");
+    #[cfg(unix)]
+    {
+        // An image path that leads to the mesh: `render` would write the image over it.
+        std::fs::remove_file(&link).ok();
+        std::os::unix::fs::symlink(&mesh, &link).unwrap();
+        cases.push((
+            vec!["render", m, "-o", link.to_str().unwrap(), "--width", "8", "--height", "8"],
+            format!("-o {}: the same file as the mesh {m}", link.display()),
+        ));
+    }
+    for (args, needle) in cases {
+        let (code, out, err) = isir_within(10, &args);
+        one_line_error(code, &err, &needle);
+        assert!(err.contains("would replace an input"), "{err}");
+        assert!(out.is_empty(), "{args:?}: {out}");
+        assert_eq!(std::fs::read_to_string(&mesh).unwrap(), mesh_text, "{args:?}: the mesh was changed");
+        assert_eq!(std::fs::read(&rays).unwrap(), rays_bytes, "{args:?}: the ray file was changed");
+        assert!(std::fs::read_to_string(&scene).unwrap().contains("m.obj"), "{args:?}: the scene file was changed");
+    }
+    // Another file is written as before.
+    let hits = dir.join("m.hits");
+    let (code, _, err) = isir(&["trace", m, r, "--hits", hits.to_str().unwrap(), "--repeat", "1"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(hits.exists());
+}
+
 /// Stopped by Ctrl-C or `kill` while it writes, `isir rays` leaves no temporary file (found
 /// by an audit: a SIGTERM left a 33 MB `.big.rays.tmp-PID-1`), and ends with status 130.
 #[cfg(unix)]
@@ -1162,5 +1218,65 @@ fn a_write_stopped_by_a_signal_leaves_no_temporary_file() {
         assert_eq!(status.code(), Some(130), "SIG{signal}: {status:?}");
         assert_eq!(temporaries(&dir, "big.rays"), Vec::<String>::new(), "SIG{signal}: temporary files left");
         assert!(!out.exists(), "SIG{signal}: a stopped write left an output");
+    }
+}
+
+/// A file given to the wrong command says what it is and which command reads it (found by
+/// a new user: `isir info scene.toml` parsed TOML as OBJ, `isir check Bunny.obj` gave a
+/// TOML error, `isir check tp4-bunny` "No such file or directory").
+#[test]
+fn a_file_given_to_the_wrong_command_says_which_reads_it() {
+    let scene = tmp("kind.toml");
+    std::fs::write(&scene, "[camera]\nposition = [0, 0, -4]\n[[objects]]\ntype = \"sphere\"\n").unwrap();
+    let mesh = tmp("kind.obj");
+    std::fs::write(&mesh, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    let rays = tmp("kind.rays");
+    let (code, _, err) = isir(&["rays", "tp4-sphere", "--kind", "primary", "-o", rays.to_str().unwrap(), "--width", "4", "--height", "2"]);
+    assert_eq!(code, 0, "{err}");
+    let (s, m, r) = (scene.to_str().unwrap(), mesh.to_str().unwrap(), rays.to_str().unwrap());
+    let cases: [(Vec<&str>, String); 9] = [
+        (vec!["info", s], format!("{s} is a scene file, not a mesh: `isir check` or `isir render` read it")),
+        (vec!["trace", s, r, "--repeat", "1"], format!("{s} is a scene file, not a mesh")),
+        (vec!["check", m], format!("{m} is a mesh, not a scene file: `isir info` describes it")),
+        (vec!["check", "tp4-bunny"], "tp4-bunny is a built-in scene, not a scene file: `isir render tp4-bunny` renders it".to_string()),
+        (vec!["check", "Bunny"], "Bunny is a built-in model, not a scene file: `isir info Bunny` describes it".to_string()),
+        (vec!["check", "tp4-buny"], "did you mean the built-in scene `tp4-bunny`?".to_string()),
+        (vec!["info", "tp4-bunny"], "tp4-bunny is a built-in scene, not a mesh: `isir render tp4-bunny` renders it".to_string()),
+        (vec!["render", r, "-o", "kind.png"], format!("{r} is a ray file, not a scene: `isir trace MESH {r}` traces it")),
+        (vec!["check", r], format!("{r} is a ray file, not a scene file")),
+    ];
+    for (args, needle) in cases {
+        let (code, out, err) = isir_within(10, &args);
+        one_line_error(code, &err, &needle);
+        assert!(out.is_empty(), "{args:?}: {out}");
+    }
+    // Each right command still reads its file.
+    assert_eq!(isir(&["check", s]).0, 0);
+    assert_eq!(isir(&["info", m]).0, 0);
+}
+
+/// A misspelt scene gets the nearest name; a built-in model's name where a scene is
+/// expected says which scene shows it (found by a new user: `unknown scene 'tp4-buny'`,
+/// nothing more).
+#[test]
+fn unknown_scenes_get_a_suggestion_and_models_the_scene_that_shows_them() {
+    for cmd in [vec!["render"], vec!["rays", "--kind", "primary", "-o", "never.rays"], vec!["bench", "--no-embree"]] {
+        let (code, _, err) = isir_within(10, &[cmd.as_slice(), &["tp4-buny"]].concat());
+        one_line_error(code, &err, "unknown scene 'tp4-buny' (did you mean `tp4-bunny`?");
+    }
+    let (code, _, err) = isir_within(10, &["render", "tp4-Conferense"]);
+    one_line_error(code, &err, "did you mean `tp4-conference`?");
+    // Nothing near: no suggestion.
+    let (code, _, err) = isir_within(10, &["render", "tp5-nothing"]);
+    one_line_error(code, &err, "unknown scene 'tp5-nothing'");
+    assert!(!err.contains("did you mean"), "{err}");
+    for (name, needle) in [
+        ("Bunny", "'Bunny' is a built-in model, not a scene: the built-in scene `tp4-bunny` shows it (`isir render tp4-bunny`)"),
+        ("bunny", "'bunny' is a built-in model, not a scene: the built-in scene `tp4-bunny` shows it"),
+        ("uvsphere", "the built-in scenes `tp4-sphere-flat` and `tp4-sphere` show it"),
+    ] {
+        let (code, _, err) = isir_within(10, &["render", name]);
+        one_line_error(code, &err, needle);
+        assert!(err.contains("model = \""), "{err}");
     }
 }
