@@ -72,7 +72,7 @@ enum Command {
     /// Trace a ray file against a mesh and print `key: value` figures.
     Trace(trace::TraceArgs),
     /// Build, trace the four ray sets of a scene and print one table (with Embree
-    /// beside it when `embree-bench` is found).
+    /// beside it when `embree3-bench` or `embree4-bench` is found).
     Bench(bench::BenchArgs),
 }
 

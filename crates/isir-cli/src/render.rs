@@ -163,6 +163,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     let outputs: Vec<PathBuf> = std::iter::once(a.output.clone()).chain(a.aov.iter().map(|&aov| aov_path(&a.output, aov))).collect();
     let inputs = crate::args::scene_inputs(name)?;
     for out in &outputs {
+        check_image_extension(out)?;
         isir::image::check_output_path(out)?;
         crate::args::check_not_an_input("-o", out, &inputs)?;
     }
@@ -176,6 +177,17 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     }
     crate::signals::writing(outputs.iter().map(PathBuf::as_path));
     with_threads(a.threads, || render_in_pool(&a, width, height))?
+}
+
+/// An image path without an extension is said to be one (the library's message, "unsupported
+/// image format '.'", quoted an empty extension).
+fn check_image_extension(path: &std::path::Path) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        path.extension().is_some_and(|e| !e.is_empty()),
+        "-o {}: the file name has no extension: name the image .png, or .exr for linear floats",
+        path.display()
+    );
+    Ok(())
 }
 
 /// Render at the size `run` settled (the options, else the scene file's, else 600×400).

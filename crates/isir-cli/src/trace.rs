@@ -13,7 +13,8 @@ use std::time::Instant;
 
 #[derive(Args, Debug)]
 pub struct RaysArgs {
-    /// A built-in scene (`isir scenes`) or a mesh file (OBJ or PLY).
+    /// A built-in scene name (`isir scenes`), a scene file (.toml) or a mesh file (.obj,
+    /// .ply, .gltf, .glb, optionally .gz).
     pub scene: String,
     /// Which ray set (primary, diffuse, shadow, random).
     #[arg(long)]
@@ -34,7 +35,8 @@ pub struct RaysArgs {
 
 #[derive(Args, Debug)]
 pub struct TraceArgs {
-    /// Mesh: a mesh file (.obj, .ply, optionally .gz) or a built-in model (uvsphere, Bunny, conference).
+    /// Mesh: a mesh file (.obj, .ply, .gltf, .glb, optionally .gz) or a built-in model
+    /// (uvsphere, Bunny, conference).
     pub mesh: PathBuf,
     /// Ray file (docs/RAYS.md).
     pub rays: PathBuf,

@@ -1280,3 +1280,12 @@ fn unknown_scenes_get_a_suggestion_and_models_the_scene_that_shows_them() {
         assert!(err.contains("model = \""), "{err}");
     }
 }
+
+/// An image name without an extension says so and names the formats (it was "unsupported
+/// image format '.'").
+#[test]
+fn an_image_name_without_an_extension_names_the_formats() {
+    let (code, _, err) = isir_within(10, &["render", "tp4-sphere", "--width", "8", "--height", "8", "-o", "noext"]);
+    one_line_error(code, &err, "-o noext: the file name has no extension");
+    assert!(err.contains(".png") && err.contains(".exr"), "{err}");
+}
