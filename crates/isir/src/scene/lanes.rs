@@ -627,6 +627,11 @@ mod tests {
             }
         }
         assert!(yes > 1000 && no > 1000, "{yes} {no}");
+        // `none` tests every triangle for every ray: no lane is culled, even far away.
+        let scene = desc.build(Accel::None).unwrap();
+        let (_, mesh) = scene.meshes().next().unwrap();
+        let away = RaySegment { origin: Vec3::splat(1e6), t_min: 0.0, direction: Vec3::X, t_max: 1.0 };
+        assert_eq!(mesh.may_hit_lanes(&RayLanes::new(&[away; LANES])), u32::MAX >> (32 - LANES));
     }
 
     /// `occluded_lanes` answers as `Scene::occluded` lane by lane, for the lanes asked
