@@ -526,6 +526,8 @@ fn print_table(
     };
     let agreement = |file: &str, ours: &[HitRecord]| -> anyhow::Result<String> {
         let theirs = rays::read_hits(&dir.join(file))?;
+        // A tool that answered another number of rays answered other rays.
+        anyhow::ensure!(theirs.len() == ours.len(), "{file}: the Embree tool wrote {} hit records for {} rays", theirs.len(), ours.len());
         Ok(format!("{:.4}%", 100.0 * compare_hits(ours, &theirs, 1e-4).fraction()))
     };
     // The engine's figures of each round (NaN without an engine).

@@ -635,6 +635,17 @@ fn bench_names_a_missing_or_failing_embree_tool() {
     // A folder given as the tool.
     let (code, _, err) = bench_with_cache(&cache, &["--embree", cache.to_str().unwrap()]);
     one_line_error(code, &err, "not a file");
+    // A tool that answers another number of rays than it was given: an error, not an
+    // agreement of 0%.
+    let short = tmp("bench-short/embree4-bench");
+    fake_embree(&short);
+    let hits_of_one = r#"printf 'ISIRHITS\001\000\000\000\000\000\000\000\001\000\000\000\000\000\000\000' > "$hits""#;
+    let script = std::fs::read_to_string(&short).unwrap();
+    let (head, _) = script.rsplit_once("exec ").unwrap();
+    std::fs::write(&short, format!("{head}{hits_of_one}\nhead -c 16 /dev/zero >> \"$hits\"\necho build_ms: 1\necho mrays_per_s: 1\n"))
+        .unwrap();
+    let (code, _, err) = bench_with_cache(&cache, &["--embree4", short.to_str().unwrap()]);
+    one_line_error(code, &err, "the Embree tool wrote 1 hit records for");
 }
 
 /// `isir bench` with `TMPDIR` set to a fresh folder, stdout piped and closed at once when
