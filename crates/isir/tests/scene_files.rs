@@ -184,6 +184,19 @@ fn values_out_of_range_are_refused_with_their_line() {
     }
 }
 
+/// A scene file that is not UTF-8 (Latin-1 from an old editor) is refused at the line and
+/// column of its first such byte.
+#[test]
+fn a_file_not_in_utf8_names_the_line_and_column() {
+    let dir = std::env::temp_dir().join(format!("isir-latin1-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("latin.toml");
+    std::fs::write(&path, b"[render]\nspp = 4\n# caf\xe9\n").unwrap();
+    let e = scenes::load_scene_file(&path).unwrap_err().to_string();
+    assert!(e.contains("latin.toml") && e.contains("line 3, column 6: byte 0xe9 is not UTF-8"), "{e}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 proptest! {
     #![proptest_config(ProptestConfig { cases: 300, ..ProptestConfig::default() })]
 

@@ -378,8 +378,18 @@ fn nearest<'a>(word: &str, choices: impl IntoIterator<Item = &'a str>) -> Option
 pub fn load_scene_file(path: &Path) -> Result<SceneFile> {
     let limits = ReadLimits::from_env().map_err(|message| Error::Input { path: path.to_path_buf(), message })?;
     let bytes = input::read_file(path, &limits)?;
-    let text =
-        std::str::from_utf8(&bytes).map_err(|e| Error::Input { path: path.to_path_buf(), message: format!("not UTF-8 text ({e})") })?;
+    let text = std::str::from_utf8(&bytes).map_err(|e| {
+        // Where, as a line and column (the bytes before it are text).
+        let before = &bytes[..e.valid_up_to()];
+        let line = before.iter().filter(|&&b| b == b'\n').count() + 1;
+        let line_start = before.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
+        let col = String::from_utf8_lossy(&before[line_start..]).chars().count() + 1;
+        let byte = bytes[e.valid_up_to()];
+        Error::Input {
+            path: path.to_path_buf(),
+            message: format!("line {line}, column {col}: byte 0x{byte:02x} is not UTF-8 text (save the file as UTF-8)"),
+        }
+    })?;
     parse_scene(path, text)
 }
 
