@@ -96,10 +96,13 @@ impl ReadLimits {
     }
 
     fn too_large(&self, path: &Path, what: String) -> Error {
-        Error::Input {
-            path: path.to_path_buf(),
-            message: format!("{what} more than the input limit of {} (set {} to raise it)", human_bytes(self.max_bytes), Self::ENV_VAR),
-        }
+        Error::Input { path: path.to_path_buf(), message: format!("{what} more than {}", self.described()) }
+    }
+
+    /// `the input limit of 1 GiB (set ISIR_MAX_INPUT_BYTES to raise it)`, for the messages
+    /// of everything the limit bounds.
+    pub(crate) fn described(&self) -> String {
+        format!("the input limit of {} (set {} to raise it)", human_bytes(self.max_bytes), Self::ENV_VAR)
     }
 }
 

@@ -10,6 +10,7 @@ pub mod obj;
 pub mod output;
 pub mod ply;
 pub mod rays;
+mod textures;
 
 /// `buf` cut into consecutive pieces of the lengths `lens` (their sum at most `buf`'s
 /// length), for threads to fill side by side: the inflated members of a BGZF file

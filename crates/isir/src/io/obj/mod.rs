@@ -35,6 +35,7 @@ mod tests;
 use crate::error::{Error, Result};
 use crate::geometry::TriangleMesh;
 use crate::io::input::{self, ReadLimits};
+use crate::io::textures::Textures;
 use crate::math::color::{Color, WHITE};
 use format::*;
 use glam::Vec3;
@@ -122,16 +123,18 @@ pub fn check_name(path: &Path) -> Result<()> {
 /// As [`parse_obj`].
 pub fn parse_obj_beside(path: &Path, bytes: &[u8], limits: &ReadLimits) -> Result<LoadedMesh> {
     let mut loaded = parse_obj_only(path, bytes, limits)?;
-    // Colour textures (`map_Kd`), beside the file: decoded once; one that cannot be read
-    // is a warning and its material keeps its flat colour.
+    // Colour textures (`map_Kd`), beside the file: each file decoded once and shared by
+    // the materials that name it, all within the input limit (see `io::textures`); one
+    // that cannot be read is a warning and its material keeps its flat colour.
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    let mut textures = Textures::new(limits);
     for m in &mut loaded.materials {
         let Some(name) = m.texture_name.clone() else { continue };
         // MTL options (`-bm 1 -s 2 2 file.png`) come first; the file is the last word.
         let file = name.split_whitespace().last().unwrap_or(&name).to_string();
         let p = dir.join(&file);
-        match input::read_file(&p, limits).map_err(|e| e.to_string()).and_then(|b| crate::materials::Texture::decode(&b)) {
-            Ok(t) => m.texture = Some(std::sync::Arc::new(t)),
+        match textures.get(p.clone(), || input::read_file(&p, limits).map_err(|e| e.to_string())) {
+            Ok(t) => m.texture = Some(t),
             Err(why) => loaded.warnings.push(format!("material '{}': texture {file}: {why}; its flat colour is used", m.name)),
         }
     }
