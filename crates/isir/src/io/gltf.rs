@@ -16,12 +16,23 @@
 //!   accessors: left out, counted in a warning;
 //! - a base-colour texture that cannot be read or decoded: a warning, the colour factor
 //!   is used (a readable one multiplies the factor, sampled at TEXCOORD_0);
-//! - NaN coordinates, zero-area triangles: never hit, counted in a warning.
+//! - NaN coordinates, zero-area triangles: never hit, counted in a warning;
+//! - a file that expands past the input limit ([`ReadLimits::max_bytes`], 1 GiB by
+//!   default): an error naming the mesh and primitive where it does, and the reuse that
+//!   made it (an accessor read by many primitives, a mesh placed by many nodes). What the
+//!   meshes take (vertices, normals, texture coordinates, triangles and their material
+//!   slots, and each mesh's copy of the materials) is counted from the accessors' counts
+//!   before anything is read, with 32 bytes more for each placed primitive: a 400 KB file
+//!   that places a 100,000-triangle mesh 3000 times, or reads one accessor of 300,000
+//!   indices in 3000 primitives, asked for gigabytes;
+//! - images: each decoded once and shared by the materials that use it, within the input
+//!   limit too (see `io/textures.rs`).
 
 use crate::error::{Error, Result};
 use crate::geometry::TriangleMesh;
+use crate::io::input::ReadLimits;
 use crate::io::obj::{FileMaterial, LoadedMesh};
-use crate::materials::Texture;
+use crate::io::textures::Textures;
 use crate::math::color::Color;
 use base64::Engine;
 use glam::{Mat3, Mat4, Vec2, Vec3};
@@ -37,12 +48,21 @@ pub fn is_glb(bytes: &[u8]) -> bool {
 
 /// Parse glTF bytes (`.gltf` JSON or `.glb`). `load_uri` returns the bytes of a buffer
 /// named by a relative URI (the file beside the glTF file); `path` names the source in
-/// messages.
+/// messages. What the file may expand to is bounded by the default input limit.
 ///
 /// # Errors
 /// See the module documentation.
 pub fn parse_gltf(path: &Path, bytes: &[u8], load_uri: impl Fn(&str) -> Result<Vec<u8>>) -> Result<LoadedMesh> {
-    let (mut meshes, _) = parse_inner(path, bytes, &load_uri, false)?;
+    parse_gltf_with(path, bytes, load_uri, &ReadLimits::default())
+}
+
+/// [`parse_gltf`] with explicit input limits, which bound what the file expands to and
+/// its decoded textures.
+///
+/// # Errors
+/// As [`parse_gltf`].
+pub fn parse_gltf_with(path: &Path, bytes: &[u8], load_uri: impl Fn(&str) -> Result<Vec<u8>>, limits: &ReadLimits) -> Result<LoadedMesh> {
+    let (mut meshes, _) = parse_inner(path, bytes, &load_uri, false, limits)?;
     Ok(meshes.remove(0))
 }
 
@@ -54,13 +74,14 @@ pub type Placements = Vec<(usize, glam::Affine3A)>;
 /// otherwise the one world-space mesh of [`parse_gltf`] and `None`.
 ///
 /// # Errors
-/// As [`parse_gltf`].
+/// As [`parse_gltf_with`].
 pub fn parse_gltf_instances(
     path: &Path,
     bytes: &[u8],
     load_uri: impl Fn(&str) -> Result<Vec<u8>>,
+    limits: &ReadLimits,
 ) -> Result<(Vec<LoadedMesh>, Option<Placements>)> {
-    parse_inner(path, bytes, &load_uri, true)
+    parse_inner(path, bytes, &load_uri, true, limits)
 }
 
 /// Read the file; with `instances` and a mesh placed twice, one [`LoadedMesh`] per glTF
@@ -70,6 +91,7 @@ fn parse_inner(
     bytes: &[u8],
     load_uri: &dyn Fn(&str) -> Result<Vec<u8>>,
     instances: bool,
+    limits: &ReadLimits,
 ) -> Result<(Vec<LoadedMesh>, Option<Placements>)> {
     let fail = |message: String| Error::Mesh { path: path.to_path_buf(), line: None, message };
     let gltf = gltf::Gltf::from_slice(bytes).map_err(|e| match e {
@@ -100,9 +122,38 @@ fn parse_inner(
         }
         buffers.push(data);
     }
+    // ---- The default scene's nodes, in world space ----
+    let scene = doc.default_scene().or_else(|| doc.scenes().next());
+    let mut placements: Vec<Placed> = Vec::new();
+    let mut seen = vec![false; doc.nodes().len()];
+    let mut stack: Vec<(gltf::Node, Mat4)> = scene.map(|s| s.nodes().map(|n| (n, Mat4::IDENTITY)).collect()).unwrap_or_default();
+    while let Some((node, parent)) = stack.pop() {
+        if std::mem::replace(&mut seen[node.index()], true) {
+            return Err(fail(format!("node {} appears twice in the scene's hierarchy (a cycle, or a shared child)", node.index())));
+        }
+        let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
+        if !world.is_finite() {
+            return Err(fail(format!("node {}: its transform is not finite", node.index())));
+        }
+        stack.extend(node.children().map(|c| (c, world)));
+        if let Some(mesh) = node.mesh() {
+            placements.push((mesh, world, Some(node.index())));
+        }
+    }
+    // Which meshes to build, each from which placements.
+    let mut uses = vec![0usize; doc.meshes().len()];
+    placements.iter().for_each(|(m, _, _)| uses[m.index()] += 1);
+    let shared = instances && uses.iter().any(|&u| u > 1);
+    let groups: Vec<Vec<Placed>> =
+        if shared { doc.meshes().map(|m| vec![(m, Mat4::IDENTITY, None)]).collect() } else { vec![placements.clone()] };
+    let instance_list = shared.then(|| placements.iter().map(|(m, w, _)| (m.index(), glam::Affine3A::from_mat4(*w))).collect::<Vec<_>>());
+    // Before anything is read or decoded.
+    check_expansion(doc, &buffers, &groups, &uses, limits).map_err(fail)?;
     // ---- Materials: one slot each, and a last one for primitives without a material ----
     let mut warnings = Vec::new();
     let mut materials: Vec<FileMaterial> = Vec::new();
+    // Each image decoded once, shared by the materials that use it.
+    let mut textures = Textures::new(limits);
     for m in doc.materials() {
         let pbr = m.pbr_metallic_roughness();
         let [r, g, b, _] = pbr.base_color_factor();
@@ -112,7 +163,7 @@ fn parse_inner(
         let mut texture = None;
         if let Some(info) = pbr.base_color_texture() {
             let image = info.texture().source();
-            let bytes = match image.source() {
+            let read = || match image.source() {
                 gltf::image::Source::View { view, .. } => buffers
                     .get(view.buffer().index())
                     .and_then(|b| b.get(view.offset()..view.offset().checked_add(view.length())?))
@@ -126,8 +177,8 @@ fn parse_inner(
                     None => load_uri(&percent_decode(uri)).map_err(|e| e.to_string()),
                 },
             };
-            match bytes.and_then(|b| Texture::decode(&b)) {
-                Ok(t) if info.tex_coord() == 0 => texture = Some(std::sync::Arc::new(t)),
+            match textures.get(image.index(), read) {
+                Ok(t) if info.tex_coord() == 0 => texture = Some(t),
                 Ok(_) => warnings.push(format!(
                     "material '{name}': its texture uses TEXCOORD_{}, isir reads only TEXCOORD_0; its colour factor is used",
                     info.tex_coord()
@@ -139,31 +190,6 @@ fn parse_inner(
         }
         materials.push(FileMaterial { name, diffuse, texture_name: None, texture });
     }
-    // ---- The default scene's nodes, in world space ----
-    let scene = doc.default_scene().or_else(|| doc.scenes().next());
-    let mut placements: Vec<(gltf::Mesh, Mat4)> = Vec::new();
-    let mut seen = vec![false; doc.nodes().len()];
-    let mut stack: Vec<(gltf::Node, Mat4)> = scene.map(|s| s.nodes().map(|n| (n, Mat4::IDENTITY)).collect()).unwrap_or_default();
-    while let Some((node, parent)) = stack.pop() {
-        if std::mem::replace(&mut seen[node.index()], true) {
-            return Err(fail(format!("node {} appears twice in the scene's hierarchy (a cycle, or a shared child)", node.index())));
-        }
-        let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
-        if !world.is_finite() {
-            return Err(fail(format!("node {}: its transform is not finite", node.index())));
-        }
-        stack.extend(node.children().map(|c| (c, world)));
-        if let Some(mesh) = node.mesh() {
-            placements.push((mesh, world));
-        }
-    }
-    // Which meshes to build, each from which placements.
-    let mut uses = vec![0usize; doc.meshes().len()];
-    placements.iter().for_each(|(m, _)| uses[m.index()] += 1);
-    let shared = instances && uses.iter().any(|&u| u > 1);
-    let groups: Vec<Vec<(gltf::Mesh, Mat4)>> =
-        if shared { doc.meshes().map(|m| vec![(m, Mat4::IDENTITY)]).collect() } else { vec![placements.clone()] };
-    let instance_list = shared.then(|| placements.iter().map(|(m, w)| (m.index(), glam::Affine3A::from_mat4(*w))).collect::<Vec<_>>());
     let doc_warnings = warnings;
     let mut results = Vec::new();
     for group in groups {
@@ -176,7 +202,7 @@ fn parse_inner(
         let (mut all_normals, mut all_uvs) = (true, true);
         let mut skipped_modes = 0usize;
         let mut sparse = 0usize;
-        for (mesh, world) in group {
+        for (mesh, world, _) in group {
             let normal_matrix = Mat3::from_mat4(world).inverse().transpose();
             for prim in mesh.primitives() {
                 if prim.mode() != Mode::Triangles {
@@ -263,6 +289,109 @@ fn parse_inner(
         results.push(LoadedMesh { mesh, materials: materials.clone(), warnings, format });
     }
     Ok((results, instance_list))
+}
+
+/// A mesh placed in the scene: the mesh, its transform and the node that places it (`None`
+/// for a mesh built once in its own space, for instances).
+type Placed<'a> = (gltf::Mesh<'a>, Mat4, Option<usize>);
+
+/// What building each placed primitive costs besides its data, in bytes (the least a
+/// primitive placed many times over costs, in time as in memory).
+const PRIMITIVE_BYTES: u64 = 32;
+
+/// Check, from the accessors' counts before anything is read, that the meshes `groups`
+/// build (with a copy of the file's materials each) take at most the input limit;
+/// otherwise say which mesh, primitive and node take them past it, and the reuse that
+/// made them so large.
+fn check_expansion(
+    doc: &gltf::Document,
+    buffers: &[Vec<u8>],
+    groups: &[Vec<Placed>],
+    uses: &[usize],
+    limits: &ReadLimits,
+) -> std::result::Result<(), String> {
+    use std::mem::size_of;
+    // How many primitives of the file read each accessor (as positions or indices).
+    let mut reads = vec![0usize; doc.accessors().len()];
+    // Per mesh, per primitive: (vertices, triangles, bytes) as the build reads them.
+    let mut costs: Vec<Vec<(u64, u64, u64)>> = Vec::with_capacity(doc.meshes().len());
+    for mesh in doc.meshes() {
+        let mut prims = Vec::new();
+        for prim in mesh.primitives() {
+            let pos = prim.get(&gltf::Semantic::Positions);
+            for a in pos.iter().chain(prim.indices().as_ref()) {
+                reads[a.index()] += 1;
+            }
+            let pos = pos.filter(|p| {
+                prim.mode() == Mode::Triangles
+                    && p.sparse().is_none()
+                    && check_accessor(p, buffers, &[DataType::F32], Dimensions::Vec3).is_ok()
+            });
+            let Some(pos) = pos else {
+                prims.push((0, 0, 0));
+                continue;
+            };
+            let count = pos.count() as u64;
+            let attribute = |semantic: gltf::Semantic, dims: Dimensions| {
+                prim.get(&semantic).is_some_and(|a| {
+                    a.sparse().is_none() && a.count() == pos.count() && check_accessor(&a, buffers, &[DataType::F32], dims).is_ok()
+                })
+            };
+            let mut per_vertex = size_of::<Vec3>();
+            if attribute(gltf::Semantic::Normals, Dimensions::Vec3) {
+                per_vertex += size_of::<Vec3>();
+            }
+            if attribute(gltf::Semantic::TexCoords(0), Dimensions::Vec2) {
+                per_vertex += size_of::<Vec2>();
+            }
+            let triangles = match prim.indices() {
+                Some(ind) if ind.sparse().is_none() => ind.count() as u64 / 3,
+                Some(_) => 0,
+                None => count / 3,
+            };
+            // Indices, material slot, and whether it can be hit.
+            let per_triangle = size_of::<[u32; 3]>() + size_of::<u32>() + size_of::<bool>();
+            let bytes = count.saturating_mul(per_vertex as u64).saturating_add(triangles.saturating_mul(per_triangle as u64));
+            prims.push((count, triangles, bytes));
+        }
+        costs.push(prims);
+    }
+    // Each mesh's copy of the materials (a name given or `material12`).
+    let materials_bytes: u64 = doc.materials().map(|m| (size_of::<FileMaterial>() + m.name().map_or(16, str::len)) as u64).sum();
+    let (mut bytes, mut vertices, mut triangles) = (0u64, 0u64, 0u64);
+    for group in groups {
+        bytes = bytes.saturating_add(materials_bytes);
+        for (mesh, _, node) in group {
+            for (prim, &(v, t, b)) in costs[mesh.index()].iter().enumerate() {
+                bytes = bytes.saturating_add(b).saturating_add(PRIMITIVE_BYTES);
+                vertices = vertices.saturating_add(v);
+                triangles = triangles.saturating_add(t);
+                if bytes <= limits.max_bytes {
+                    continue;
+                }
+                let at = node.map_or(String::new(), |n| format!(" (node {n})"));
+                let mut why = Vec::new();
+                if node.is_some() && uses[mesh.index()] > 1 {
+                    why.push(format!("mesh {} is placed by {} nodes, each a copy in world space", mesh.index(), uses[mesh.index()]));
+                }
+                let p = mesh.primitives().nth(prim);
+                let accessors = p.iter().flat_map(|p| p.get(&gltf::Semantic::Positions).into_iter().chain(p.indices()));
+                if let Some((r, a)) = accessors.map(|a| (reads[a.index()], a.index())).max().filter(|&(r, _)| r > 1) {
+                    why.push(format!("its accessor {a} is read by {r} primitives"));
+                }
+                if doc.materials().len() > 1 && groups.len() > 1 {
+                    why.push(format!("each of the {} meshes has its copy of the {} materials", groups.len(), doc.materials().len()));
+                }
+                let why = if why.is_empty() { String::new() } else { format!(": {}", why.join(", ")) };
+                return Err(format!(
+                    "mesh {} primitive {prim}{at} takes the file's meshes past {}, at {triangles} triangles and {vertices} vertices{why}",
+                    mesh.index(),
+                    limits.described(),
+                ));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Check that `a` is of one of `types` with `dims`, not normalized, and lies inside its

@@ -70,7 +70,7 @@ pub fn load_mesh_file(path: &Path) -> Result<MeshFile> {
         let bytes = input::read_file(path, &limits)?;
         let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
         // The file is parsed once, whether its nodes share meshes or not.
-        let (mut meshes, placements) = gltf::parse_gltf_instances(path, &bytes, |uri| input::read_file(&dir.join(uri), &limits))?;
+        let (mut meshes, placements) = gltf::parse_gltf_instances(path, &bytes, |uri| input::read_file(&dir.join(uri), &limits), &limits)?;
         return Ok(match placements {
             Some(placements) => MeshFile::Instances(meshes, placements),
             None => MeshFile::One(Box::new(meshes.remove(0))),
@@ -82,5 +82,5 @@ pub fn load_mesh_file(path: &Path) -> Result<MeshFile> {
 /// A glTF file's bytes, its external buffers read beside it within `limits`.
 fn load_gltf(path: &Path, bytes: &[u8], limits: &ReadLimits) -> Result<LoadedMesh> {
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    gltf::parse_gltf(path, bytes, |uri| input::read_file(&dir.join(uri), limits))
+    gltf::parse_gltf_with(path, bytes, |uri| input::read_file(&dir.join(uri), limits), limits)
 }
