@@ -6,7 +6,7 @@
 use base64::Engine;
 use isir::io::gltf::{parse_gltf, parse_gltf_instances, parse_gltf_with};
 use isir::io::input::ReadLimits;
-use isir::io::obj::load_obj_with;
+use isir::io::obj::{load_obj_with, parse_obj};
 use std::path::Path;
 use std::sync::Arc;
 
@@ -73,6 +73,39 @@ fn obj_textures_stop_at_the_input_limit_with_a_warning() {
     // With the default limit all three are decoded.
     let m = load_obj_with(&d.path().join("three.obj"), &ReadLimits::default()).unwrap();
     assert!(m.materials.iter().all(|m| m.texture.is_some()), "{:?}", m.warnings);
+}
+
+#[test]
+fn a_material_library_named_again_adds_nothing() {
+    let library = "newmtl m0\nKd 1 0 0\nnewmtl m1\nKd 0 1 0\nnewmtl m2\nKd 0 0 1\n";
+    let reads = std::cell::Cell::new(0);
+    let loader = |p: &Path| {
+        reads.set(reads.get() + 1);
+        match p.to_str() {
+            Some("a.mtl" | "./a.mtl" | "copy.mtl") => Ok(library.as_bytes().to_vec()),
+            _ => Err(isir::Error::Scene(format!("{} not here", p.display()))),
+        }
+    };
+    // 300 lines naming one library, two other spellings of it, and a missing one twice.
+    let mut names = vec!["a.mtl"; 300];
+    names.extend(["./a.mtl", "copy.mtl", "gone.mtl", "gone.mtl"]);
+    let m = parse_obj(Path::new("t.obj"), obj(3, &names).as_bytes(), loader).unwrap();
+    assert_eq!(m.materials.iter().map(|m| m.name.as_str()).collect::<Vec<_>>(), ["m0", "m1", "m2"]);
+    assert_eq!(m.mesh.material_slots, [0, 1, 2]);
+    assert_eq!(m.materials[2].diffuse, isir::Vec3::Z);
+    // Read once by name: a.mtl, ./a.mtl, copy.mtl, gone.mtl; one warning for the missing one.
+    assert_eq!(reads.get(), 4);
+    assert_eq!(m.warnings.iter().filter(|w| w.contains("gone.mtl not here")).count(), 1, "{:?}", m.warnings);
+
+    // Two different libraries, each named once, give their materials in order, as before.
+    let two = |p: &Path| match p.to_str() {
+        Some("a.mtl") => Ok(library.as_bytes().to_vec()),
+        _ => Ok(b"newmtl b0\nKd 1 1 0\n".to_vec()),
+    };
+    let text = "mtllib a.mtl\nmtllib b.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl b0\nf 1 2 3\nusemtl m1\nf 1 2 3\n";
+    let m = parse_obj(Path::new("t.obj"), text.as_bytes(), two).unwrap();
+    assert_eq!(m.materials.iter().map(|m| m.name.as_str()).collect::<Vec<_>>(), ["m0", "m1", "m2", "b0"]);
+    assert_eq!(m.mesh.material_slots, [3, 1]);
 }
 
 /// A GLB: a triangle (3 positions) and one accessor of `indices` u8 indices, read by

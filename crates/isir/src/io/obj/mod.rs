@@ -23,6 +23,9 @@
 //!   [`ReadLimits::max_bytes`] (1 GiB by default, decompressed size for `.gz`; the
 //!   `ISIR_MAX_INPUT_BYTES` environment variable changes it, e.g. `4G`), gzip members all
 //!   read. A material library that cannot be read is a warning naming it and why.
+//! - A material library is loaded once however many `mtllib` lines name it (or name a
+//!   copy of it): the later lines add no materials. Each `map_Kd` image is decoded once,
+//!   shared by its materials, all within the input limit (see `io/textures.rs`).
 //! - Errors name the file and, where it can be found, the line; a quoted line or element
 //!   is cut to 80 characters.
 
@@ -221,9 +224,10 @@ fn parse_obj_by(
     // names the k-th one defined, `None` when it failed.
     let libraries: RefCell<Vec<Option<Vec<String>>>> = RefCell::new(Vec::new());
     let mtl_warnings = RefCell::new(Vec::new());
+    let loaded = RefCell::new(LoadedLibraries::default());
     let options = tobj::LoadOptions { triangulate: true, single_index: true, ignore_points: true, ignore_lines: true };
     let loader = |mtl: &Path| {
-        let (library, notes) = load_library(mtl, &mtl_loader);
+        let (library, notes) = loaded.borrow_mut().load(mtl, &mtl_loader);
         libraries.borrow_mut().push(library.as_ref().ok().map(|(materials, _)| materials.iter().map(|m| m.name.clone()).collect()));
         mtl_warnings.borrow_mut().extend(notes);
         library
@@ -241,6 +245,7 @@ fn parse_obj_by(
         None => {
             libraries.borrow_mut().clear();
             mtl_warnings.borrow_mut().clear();
+            *loaded.borrow_mut() = LoadedLibraries::default();
             tobj::load_obj_buf(&mut text.as_bytes(), &options, loader)
         }
     };
@@ -332,14 +337,53 @@ fn diffuse(kd: Option<[f32; 3]>) -> Color {
     }
 }
 
-/// Load the material library named `mtl` (as the `mtllib` line writes it): its materials
-/// and the warnings about values it fixed, or an error and the warning that says why it
-/// is not used.
-fn load_library(mtl: &Path, loader: &impl Fn(&Path) -> Result<Vec<u8>>) -> (tobj::MTLLoadResult, Vec<String>) {
+/// The material libraries an OBJ file's `mtllib` lines loaded so far, by the name the
+/// line writes and by content, and whether each loaded. A library named again (on another
+/// line, or spelled otherwise: `./a.mtl`, or a copy of it) adds nothing: tobj appends a
+/// library's materials on every `mtllib` line, and 300 lines naming one library of
+/// 100,000 materials were 30 million materials. So it is read once (by name) or parsed
+/// once (by content), and the later lines give no materials, or the same failure without
+/// a second warning; its names keep their first materials. Files that name each library
+/// once are read as before.
+#[derive(Default)]
+struct LoadedLibraries {
+    by_name: std::collections::HashMap<std::path::PathBuf, bool>,
+    by_content: std::collections::HashMap<u64, bool>,
+    hasher: std::collections::hash_map::RandomState,
+}
+
+impl LoadedLibraries {
+    /// [`load_library`] for a library not loaded before; for one loaded already, no
+    /// materials, or the same failure as before.
+    fn load(&mut self, mtl: &Path, loader: &impl Fn(&Path) -> Result<Vec<u8>>) -> (tobj::MTLLoadResult, Vec<String>) {
+        let again =
+            |ok: bool| (if ok { Ok((Vec::new(), Default::default())) } else { Err(tobj::LoadError::MaterialParseError) }, Vec::new());
+        if let Some(&ok) = self.by_name.get(mtl) {
+            return again(ok);
+        }
+        let bytes = loader(mtl);
+        let content = bytes.as_ref().ok().map(|b| std::hash::BuildHasher::hash_one(&self.hasher, b));
+        if let Some(&ok) = content.and_then(|c| self.by_content.get(&c)) {
+            self.by_name.insert(mtl.to_path_buf(), ok);
+            return again(ok);
+        }
+        let (library, notes) = load_library(mtl, bytes);
+        self.by_name.insert(mtl.to_path_buf(), library.is_ok());
+        if let Some(c) = content {
+            self.by_content.insert(c, library.is_ok());
+        }
+        (library, notes)
+    }
+}
+
+/// Load the material library named `mtl` (as the `mtllib` line writes it) from `bytes`
+/// (what its loader gave): its materials and the warnings about values it fixed, or an
+/// error and the warning that says why it is not used.
+fn load_library(mtl: &Path, bytes: Result<Vec<u8>>) -> (tobj::MTLLoadResult, Vec<String>) {
     let name = excerpt(&mtl.to_string_lossy());
     let failed =
         |why: String| (Err(tobj::LoadError::MaterialParseError), vec![format!("material library {why}; faces use the default material")]);
-    let bytes = match loader(mtl) {
+    let bytes = match bytes {
         Ok(b) => b,
         Err(e) => return failed(excerpt_ends(&e.to_string())),
     };
