@@ -361,11 +361,13 @@ impl SceneDescription {
                                 }
                                 for (n, (k, affine)) in placements.into_iter().enumerate() {
                                     let (mesh, mats) = &built[k];
-                                    let instance = Instance::new(mesh.clone(), affine)
-                                        .ok_or_else(|| {
-                                            let why = "cannot be inverted (a zero scale, or not finite)";
-                                            Error::Scene(format!("{what}: the transform of the glTF node placing mesh {k} (placement {}) {why}", n + 1))
-                                        })?;
+                                    let instance = Instance::new(mesh.clone(), affine).ok_or_else(|| {
+                                        let why = "cannot be inverted (a zero scale, or not finite)";
+                                        Error::Scene(format!(
+                                            "{what}: the transform of the glTF node placing mesh {k} (placement {}) {why}",
+                                            n + 1
+                                        ))
+                                    })?;
                                     let b = instance.bounds();
                                     if !b.is_empty() {
                                         check_extent(&what, b.min.abs().max(b.max.abs()).max_element())?;
