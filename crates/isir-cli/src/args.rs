@@ -62,29 +62,13 @@ pub fn kind(arg: &str) -> Kind {
     Kind::Other
 }
 
-/// The levenshtein distance of two short words.
-fn distance(a: &str, b: &str) -> usize {
-    let b: Vec<char> = b.chars().collect();
-    let mut row: Vec<usize> = (0..=b.len()).collect();
-    for (i, ca) in a.chars().enumerate() {
-        let mut prev = row[0];
-        row[0] = i + 1;
-        for j in 0..b.len() {
-            let cur = row[j + 1];
-            row[j + 1] = (prev + usize::from(ca != b[j])).min(row[j] + 1).min(cur + 1);
-            prev = cur;
-        }
-    }
-    row[b.len()]
-}
-
 /// The nearest of `choices` to `word` (in any letters), if near enough to be a typo: at
 /// most a third of its letters off (one at least, three at most).
 pub fn nearest<'a>(word: &str, choices: impl IntoIterator<Item = &'a str>) -> Option<&'a str> {
     let word = word.to_lowercase();
     choices
         .into_iter()
-        .map(|c| (distance(&word, &c.to_lowercase()), c))
+        .map(|c| (isir::scenes::edit_distance(&word, &c.to_lowercase()), c))
         .filter(|&(d, c)| d <= (c.chars().count() / 3).clamp(1, 3))
         .min()
         .map(|(_, c)| c)

@@ -350,8 +350,10 @@ fn material_check(m: &Material) -> std::result::Result<(), String> {
     }
 }
 
-/// The levenshtein distance of two short words.
-fn distance(a: &str, b: &str) -> usize {
+/// The Levenshtein distance of two short words: what the suggestions of scene-file errors
+/// (and of the `isir` command's) measure a typo by.
+#[must_use]
+pub fn edit_distance(a: &str, b: &str) -> usize {
     let b: Vec<char> = b.chars().collect();
     let mut row: Vec<usize> = (0..=b.len()).collect();
     for (i, ca) in a.chars().enumerate() {
@@ -368,7 +370,7 @@ fn distance(a: &str, b: &str) -> usize {
 
 /// The nearest of `choices` to `word`, if near enough to be a typo.
 fn nearest<'a>(word: &str, choices: impl IntoIterator<Item = &'a str>) -> Option<&'a str> {
-    choices.into_iter().map(|c| (distance(word, c), c)).filter(|&(d, c)| d <= (c.len().max(2) / 2).max(1)).min().map(|(_, c)| c)
+    choices.into_iter().map(|c| (edit_distance(word, c), c)).filter(|&(d, c)| d <= (c.len().max(2) / 2).max(1)).min().map(|(_, c)| c)
 }
 
 /// Read and parse the scene file `path` (within the input limit).

@@ -16,7 +16,7 @@ mod tp6;
 mod tp7;
 
 pub use description::{CameraDesc, MeshSource, ObjectDesc, SceneDescription, ShapeDesc, Transform, MAX_COORDINATE};
-pub use file::{load_scene_file, parse_scene, to_toml, SceneFile};
+pub use file::{edit_distance, load_scene_file, parse_scene, to_toml, SceneFile};
 
 use crate::error::{Error, Result};
 use crate::geometry::{Plane, Sdf, Shading, Sphere};
