@@ -119,6 +119,46 @@ pub struct BsdfSample {
 }
 
 impl Material {
+    /// What a material must be to shade: finite colours that are not negative, and
+    /// parameters in their ranges (`sigma`, `shininess` at least 0; `roughness`, `ior`
+    /// above 0; `metalness` from 0 to 1). Outside them a material shades NaN, infinite
+    /// or unphysical values (a negative `ior` reflected 500 times the light).
+    ///
+    /// # Errors
+    /// Which parameter is out of its range, in words.
+    pub fn check(&self) -> std::result::Result<(), String> {
+        let colour = |what: &str, c: Color| {
+            if c.is_finite() && c.min_element() >= 0.0 {
+                Ok(())
+            } else {
+                Err(format!("{what} {c} must be finite and not negative"))
+            }
+        };
+        let within = |what: &str, x: f32, lo: f32, hi: f32, lo_open: bool| {
+            let above = if lo_open { x > lo } else { x >= lo };
+            match (above && x <= hi, hi == f32::MAX, lo_open) {
+                (true, _, _) => Ok(()),
+                (false, true, true) => Err(format!("{what} {x} must be finite and above {lo}")),
+                (false, true, false) => Err(format!("{what} {x} must be finite and at least {lo}")),
+                (false, false, _) => Err(format!("{what} {x} must be between {lo} and {hi}")),
+            }
+        };
+        match *self {
+            Material::Color(c) | Material::Lambert(c) => colour("color", c),
+            Material::Textured { tint, .. } => colour("color", tint),
+            Material::Matte { kd, sigma } => colour("color", kd).and(within("sigma", sigma, 0.0, f32::MAX, false)),
+            Material::Plastic { kd, ks, shininess, .. } => {
+                colour("color", kd).and(colour("specular", ks)).and(within("shininess", shininess, 0.0, f32::MAX, false))
+            }
+            Material::CookTorrance { kd, f0, roughness, metalness } => colour("color", kd)
+                .and(colour("f0", f0))
+                .and(within("roughness", roughness, 0.0, f32::MAX, true).map_err(|e| format!("{e} (a mirror is `type = \"mirror\"`)")))
+                .and(within("metalness", metalness, 0.0, 1.0, false)),
+            Material::Mirror => Ok(()),
+            Material::Transparent { ior } => within("ior", ior, 0.0, f32::MAX, true),
+        }
+    }
+
     /// The colour shown by the ray-cast integrator.
     #[must_use]
     pub fn flat_color(&self) -> Color {

@@ -106,8 +106,65 @@ impl Scene {
             shafts: Vec::new(),
             quad_planes: Vec::new(),
         };
+        scene.check();
         scene.prepare();
         scene
+    }
+
+    /// What [`Scene::new`] finds wrong in what it was given, made safe and said in
+    /// `warnings`: an object with no material, or a material id past `materials`, gets
+    /// the course's white `ColorMaterial` (they made the renderer index out of bounds);
+    /// a sphere, plane, light or material that cannot be traced or shaded is named (a
+    /// [`crate::SceneDescription`] refuses them before they get here).
+    fn check(&mut self) {
+        let mut default = None;
+        for o in &mut self.objects {
+            let ids = o.materials.len();
+            let bad = o.materials.iter().filter(|&&m| m as usize >= self.materials.len()).count();
+            if ids == 0 || bad > 0 {
+                let id = *default.get_or_insert_with(|| {
+                    self.materials.push(Material::Color(crate::math::color::WHITE));
+                    (self.materials.len() - 1) as MaterialId
+                });
+                let known = self.materials.len() - 1;
+                if ids == 0 {
+                    o.materials.push(id);
+                    self.warnings.push(format!("object '{}': no material; the course's white ColorMaterial is used", o.name));
+                } else {
+                    for m in &mut o.materials {
+                        if *m as usize >= known {
+                            *m = id;
+                        }
+                    }
+                    self.warnings.push(format!(
+                        "object '{}': {bad} material ids past the {known} materials; the course's white ColorMaterial is used",
+                        o.name
+                    ));
+                }
+            }
+            let never = match &o.geometry {
+                Geometry::Sphere(s) if !(s.center.is_finite() && s.radius.is_finite() && s.radius > 0.0) => {
+                    Some(format!("a sphere of centre {} and radius {}", s.center, s.radius))
+                }
+                Geometry::Plane(p) if !(p.point.is_finite() && p.normal.is_finite() && (p.normal.length() - 1.0).abs() < 1e-3) => {
+                    Some(format!("a plane through {} whose normal {} is not of length 1", p.point, p.normal))
+                }
+                _ => None,
+            };
+            if let Some(what) = never {
+                self.warnings.push(format!("object '{}': {what} is never hit or shaded right", o.name));
+            }
+        }
+        for (i, m) in self.materials.iter().enumerate() {
+            if let Err(why) = m.check() {
+                self.warnings.push(format!("material {i}: {why}"));
+            }
+        }
+        for (i, l) in self.lights.iter().enumerate() {
+            if let Err(why) = l.check() {
+                self.warnings.push(format!("light {}: {why}", i + 1));
+            }
+        }
     }
 
     /// Build what speeds up the queries over the objects, as they are now: the top-level

@@ -280,6 +280,7 @@ impl SceneDescription {
         let mut materials: Vec<Material> = vec![Material::Color(WHITE)]; // the default
         let mut by_name = std::collections::HashMap::new();
         for (name, m) in &self.materials {
+            m.check().map_err(|why| Error::Scene(format!("material '{name}': {why}")))?;
             by_name.insert(name.as_str(), materials.len() as MaterialId);
             materials.push(m.clone());
         }
@@ -417,6 +418,9 @@ impl SceneDescription {
             objects.push(Object { name: desc.name.clone(), geometry, materials: mats });
         }
         let mut scene = Scene::new(objects, materials, self.lights.clone(), self.background);
+        // The description's warnings first, then the scene's own (none when built from a
+        // description, which refuses what `Scene::new` would warn about).
+        warnings.append(&mut scene.warnings);
         scene.warnings = warnings;
         Ok(scene)
     }

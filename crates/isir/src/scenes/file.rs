@@ -314,42 +314,6 @@ fn default_power() -> f32 {
     100.0
 }
 
-/// What a scene file's material must be: finite colours that are not negative, and
-/// parameters in their ranges. (Built from Rust, such a material renders: its NaN
-/// samples are dropped and counted.)
-fn material_check(m: &Material) -> std::result::Result<(), String> {
-    let colour = |what: &str, c: Vec3| {
-        if c.is_finite() && c.min_element() >= 0.0 {
-            Ok(())
-        } else {
-            Err(format!("{what} {c} must be finite and not negative"))
-        }
-    };
-    let within = |what: &str, x: f32, lo: f32, hi: f32, lo_open: bool| {
-        let above = if lo_open { x > lo } else { x >= lo };
-        match (above && x <= hi, hi == f32::MAX, lo_open) {
-            (true, _, _) => Ok(()),
-            (false, true, true) => Err(format!("{what} {x} must be finite and above {lo}")),
-            (false, true, false) => Err(format!("{what} {x} must be finite and at least {lo}")),
-            (false, false, _) => Err(format!("{what} {x} must be between {lo} and {hi}")),
-        }
-    };
-    match *m {
-        Material::Color(c) | Material::Lambert(c) => colour("color", c),
-        Material::Textured { tint, .. } => colour("color", tint),
-        Material::Matte { kd, sigma } => colour("color", kd).and(within("sigma", sigma, 0.0, f32::MAX, false)),
-        Material::Plastic { kd, ks, shininess, .. } => {
-            colour("color", kd).and(colour("specular", ks)).and(within("shininess", shininess, 0.0, f32::MAX, false))
-        }
-        Material::CookTorrance { kd, f0, roughness, metalness } => colour("color", kd)
-            .and(colour("f0", f0))
-            .and(within("roughness", roughness, 0.0, f32::MAX, true).map_err(|e| format!("{e} (a mirror is `type = \"mirror\"`)")))
-            .and(within("metalness", metalness, 0.0, 1.0, false)),
-        Material::Mirror => Ok(()),
-        Material::Transparent { ior } => within("ior", ior, 0.0, f32::MAX, true),
-    }
-}
-
 /// The Levenshtein distance of two short words: what the suggestions of scene-file errors
 /// (and of the `isir` command's) measure a typo by.
 #[must_use]
@@ -526,7 +490,7 @@ pub fn parse_scene(path: &Path, text: &str) -> Result<SceneFile> {
             MaterialSpec::Mirror {} => Material::Mirror,
             MaterialSpec::Transparent { ior } => Material::Transparent { ior },
         };
-        if let Err(why) = material_check(&material) {
+        if let Err(why) = material.check() {
             return Err(at(Some(m.span()), format!("material `{n}`: {why}")));
         }
         d.materials.push((n.clone(), material));
