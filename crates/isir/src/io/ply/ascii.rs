@@ -10,7 +10,9 @@
 //! Anything else gets `None` and the record reader reads the file, naming its problem:
 //! binary files, a token the grammar or its type rejects, a line with too few tokens, a
 //! body with fewer lines than the header says, bytes that are not ASCII, a lone carriage
-//! return, list properties on vertices, a second index list, a face index out of range.
+//! return, list properties on vertices, a second index list, a face index out of range,
+//! a line with more values than the header declares (which the record reader would
+//! ignore: `mod.rs` looks for them as it reads, [`values_past_the_declared`]).
 
 use super::{Body, Vertex};
 use ply_rs_bw::ply::{ElementDef, Encoding, Header, PropertyType, ScalarType};
@@ -157,7 +159,62 @@ fn check_record(def: &ElementDef, t: &[&str]) -> Option<()> {
             }
         }
     }
-    Some(())
+    it.next().is_none().then_some(())
+}
+
+/// The first of element `def`'s lines (from `*at` in `body`, line `*line` of the file the
+/// first, up to line `until`) that holds more values than the header declares, which
+/// the record reader would ignore: its line and the problem. `*at` and `*line` move past
+/// the lines looked at. Lines too short to count are the record reader's to name.
+pub(super) fn values_past_the_declared(
+    def: &ElementDef,
+    body: &[u8],
+    at: &mut usize,
+    line: &mut usize,
+    until: usize,
+) -> Option<(usize, String)> {
+    for _ in 0..def.count {
+        if *at >= body.len() || *line >= until {
+            return None;
+        }
+        let end = body[*at..].iter().position(|&b| b == b'\n').map_or(body.len(), |i| *at + i);
+        let text = &body[*at..end];
+        let text = text.strip_suffix(b"\r").unwrap_or(text);
+        let t: Vec<&[u8]> = text.split(|&b| b == b' ' || b == b'\t').filter(|t| !t.is_empty()).collect();
+        let here = *line;
+        *at = (end + 1).min(body.len());
+        *line += 1;
+        // The values the header declares for this line, and the last list's (name,
+        // count, first value) when it is the last property.
+        let mut declared = 0usize;
+        let mut last_list = None;
+        let mut countable = true;
+        for p in def.properties.values() {
+            match &p.data_type {
+                PropertyType::Scalar(_) => {
+                    declared += 1;
+                    last_list = None;
+                }
+                PropertyType::List(..) => {
+                    let n = t.get(declared).and_then(|c| std::str::from_utf8(c).ok()?.parse::<usize>().ok());
+                    let Some(n) = n.filter(|&n| n < t.len()) else {
+                        countable = false;
+                        break;
+                    };
+                    last_list = Some((&p.name, n, declared + 1));
+                    declared += 1 + n;
+                }
+            }
+        }
+        if countable && t.len() > declared {
+            let problem = match last_list {
+                Some((name, n, first)) => format!("the list '{name}' says {n} values, the line holds {}", t.len() - first),
+                None => format!("{} values where the header declares {declared}", t.len()),
+            };
+            return Some((here, problem));
+        }
+    }
+    None
 }
 
 /// The `vertex` element's lines into `out`, as the record reader keeps them.
@@ -186,7 +243,7 @@ fn read_vertices(def: &ElementDef, body: &[u8], lines: &[Range<usize>], out: &mu
                 None => parses(ty, s).then_some(())?,
             }
         }
-        Some(v)
+        it.next().is_none().then_some(v)
     };
     let records: Vec<Vertex> = lines.par_iter().with_min_len(1 << 12).map(read).collect::<Option<_>>()?;
     out.set_vertices(&records);
@@ -228,7 +285,7 @@ fn read_faces(def: &ElementDef, body: &[u8], lines: &[Range<usize>], vertex_coun
                 }
             }
         }
-        Some(())
+        it.next().is_none().then_some(())
     };
     // Chunks of faces on every thread, each read into a body of its own, then in order.
     let chunks: Vec<Option<Body>> = lines

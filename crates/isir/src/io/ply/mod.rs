@@ -12,6 +12,11 @@
 //! Bad input, case by case:
 //! - not PLY, a malformed header or body, a body cut short, fewer elements than the header
 //!   declares: an error naming the file and the line (ASCII) or what was being read;
+//! - an element declared twice, a property declared twice in one element, a face's
+//!   `vertex_indices` that is not a list of integers: an error naming the header line
+//!   (`ply-rs-bw` would keep the last declaration, or give the faces no indices);
+//! - an ASCII line with more values than the header declares (a list's count included),
+//!   which `ply-rs-bw` ignores: an error naming the line, whichever reader reads it;
 //! - no `vertex` element, or one without `x y z`: an error;
 //! - a face index that is negative or past the last vertex: an error naming the face;
 //! - faces of one or two vertices: dropped, counted in a warning;
@@ -206,12 +211,56 @@ fn parse_ply_by(path: &Path, bytes: &[u8], direct: bool) -> Result<LoadedMesh> {
     };
     let mut reader = Reader::new(bytes);
     let header = Parser::<Skip>::new().read_header(&mut reader).map_err(|e| parse_error("header", e, true))?;
+    let header_text = &bytes[..bytes.len() - reader.get_ref().len()];
+    check_header(header_text).map_err(|(line, message)| fail(Some(line), format!("header: {message}")))?;
     let direct = direct.then(|| binary::read(&header, reader.get_ref()).or_else(|| ascii::read(&header, reader.get_ref())));
     let body = match direct.flatten() {
         Some(body) => body,
         None => read_records(&header, &mut reader, &fail, &parse_error)?,
     };
     finish(body, &header)
+}
+
+/// What `ply-rs-bw` lets through in a header it parses (`text`, from the `ply` line to
+/// `end_header`), as the line (1-based) and the problem: an element declared twice, or a
+/// property declared twice in one element (the crate keeps the last declaration in the
+/// first one's place, and the body is then read with the wrong layout); a face's
+/// `vertex_indices` (or `vertex_index`) that is not a list of integers (the crate gives
+/// the faces no indices: they would all be dropped as faces of no vertices).
+fn check_header(text: &[u8]) -> std::result::Result<(), (usize, String)> {
+    use std::collections::HashSet;
+    let mut elements: HashSet<&str> = HashSet::new();
+    let mut properties: HashSet<&str> = HashSet::new();
+    let mut element = "";
+    for (k, line) in text.split(|&b| b == b'\n').enumerate() {
+        // The crate has read every line as UTF-8 text.
+        let Ok(line) = std::str::from_utf8(line) else { continue };
+        let tokens: Vec<&str> = line.split_ascii_whitespace().collect();
+        match tokens[..] {
+            ["element", name, ..] => {
+                if !elements.insert(name) {
+                    return Err((k + 1, format!("element '{name}' declared twice")));
+                }
+                properties.clear();
+                element = name;
+            }
+            ["property", .., name] => {
+                if !properties.insert(name) {
+                    return Err((k + 1, format!("property '{name}' of element '{element}' declared twice")));
+                }
+                let is_float = |t: &str| matches!(t, "float" | "double" | "float32" | "float64");
+                let indices = element == "face" && (name == "vertex_indices" || name == "vertex_index");
+                if indices && !matches!(tokens[..], ["property", "list", _, item, _] if !is_float(item)) {
+                    return Err((
+                        k + 1,
+                        format!("'{name}' must be a list of integers ('property list uchar int {name}'), not '{}'", tokens.join(" ")),
+                    ));
+                }
+            }
+            _ => {}
+        }
+    }
+    Ok(())
 }
 
 /// What a PLY body holds, as isir reads it.
@@ -272,17 +321,21 @@ impl Body {
 }
 
 /// The body read record by record through `ply-rs-bw`, each problem named.
-fn read_records<R: std::io::BufRead>(
+fn read_records(
     header: &ply_rs_bw::ply::Header,
-    reader: &mut Reader<R>,
+    reader: &mut Reader<&[u8]>,
     fail: &impl Fn(Option<usize>, String) -> Error,
     parse_error: &impl Fn(&str, ply_rs_bw::parser::ParseError, bool) -> Error,
 ) -> Result<Body> {
     let ascii = header.encoding == ply_rs_bw::ply::Encoding::Ascii;
+    let reader_body: &[u8] = reader.get_ref();
     let mut vertices: Option<Vec<Vertex>> = None;
     let mut faces: Vec<Face> = Vec::new();
     // Faces of a binary element without properties (no indices: all short).
     let mut empty_faces = 0;
+    // The ASCII body's lines, checked for values past the declared ones (which the crate
+    // ignores) as the crate reads them: where the next element starts, and its line.
+    let (mut at, mut line) = (0usize, reader.line());
     for def in header.elements.values() {
         let what = format!("element '{}' ({} declared)", def.name, def.count);
         // A binary record without properties takes no bytes, and the crate would make one
@@ -290,21 +343,32 @@ fn read_records<R: std::io::BufRead>(
         // would give: vertices without x y z (an error if there are any), faces without
         // indices, nothing.
         let empty = !ascii && def.properties.is_empty();
-        match def.name.as_str() {
-            "vertex" if empty => vertices = Some(vec![Vertex::default(); def.count.min(1)]),
-            "face" if empty => empty_faces = def.count,
-            _ if empty => {}
-            "vertex" => {
-                vertices =
-                    Some(Parser::<Vertex>::new().read_payload_for_element(reader, def, header).map_err(|e| parse_error(&what, e, ascii))?)
+        let read = match def.name.as_str() {
+            "vertex" if empty => {
+                vertices = Some(vec![Vertex::default(); def.count.min(1)]);
+                Ok(())
             }
-            "face" => {
-                faces = Parser::<Face>::new().read_payload_for_element(reader, def, header).map_err(|e| parse_error(&what, e, ascii))?
+            "face" if empty => {
+                empty_faces = def.count;
+                Ok(())
             }
-            _ => {
-                Parser::<Skip>::new().read_payload_for_element(reader, def, header).map_err(|e| parse_error(&what, e, ascii))?;
+            _ if empty => Ok(()),
+            "vertex" => Parser::<Vertex>::new().read_payload_for_element(reader, def, header).map(|v| vertices = Some(v)),
+            "face" => Parser::<Face>::new().read_payload_for_element(reader, def, header).map(|f| faces = f),
+            _ => Parser::<Skip>::new().read_payload_for_element(reader, def, header).map(|_| ()),
+        };
+        if ascii {
+            // Up to the line the crate stopped at: a line before it with values too many
+            // is the first problem.
+            let until = match &read {
+                Ok(()) => usize::MAX,
+                Err(e) => e.line().unwrap_or(0),
+            };
+            if let Some((l, problem)) = ascii::values_past_the_declared(def, reader_body, &mut at, &mut line, until) {
+                return Err(fail(Some(l), format!("{what}: {problem}")));
             }
         }
+        read.map_err(|e| parse_error(&what, e, ascii))?;
     }
     let Some(vertices) = vertices else {
         return Err(fail(None, "no 'vertex' element".into()));

@@ -380,3 +380,110 @@ fn binary_elements_without_properties_cost_nothing_whatever_their_count() {
     b.extend([3, 0, 0, 0, 0, 1, 0, 0, 0, 2, 0, 0, 0]);
     assert_eq!(assert_same_readers(&b).unwrap().mesh.triangles, vec![[0, 1, 2]]);
 }
+
+/// A header of three float vertices (`vertex_extra` after `x y z`) and one face
+/// declared as `face_decl`, in `format`.
+fn header_with(format: &str, vertex_extra: &str, face_decl: &str) -> String {
+    format!(
+        "ply\nformat {format} 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n{vertex_extra}\
+element face 1\n{face_decl}\nend_header\n"
+    )
+}
+
+/// The bytes of three float vertices and one `list uchar int` triangle, little endian.
+fn binary_triangle() -> Vec<u8> {
+    let mut b: Vec<u8> = [0f32, 0., 0., 1., 0., 0., 0., 1., 0.].iter().flat_map(|f| f.to_le_bytes()).collect();
+    b.push(3);
+    [0i32, 1, 2].iter().for_each(|i| b.extend(i.to_le_bytes()));
+    b
+}
+
+#[test]
+fn an_element_or_property_declared_twice_is_an_error_naming_its_header_line() {
+    let vertex = "element vertex 3\nproperty float x\nproperty float y\nproperty float z\n";
+    let ascii = format!(
+        "ply\nformat ascii 1.0\n{vertex}{vertex}element face 1\nproperty list uchar int vertex_indices\nend_header\n\
+0 0 0\n1 0 0\n0 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"
+    );
+    let e = assert_same_readers(ascii.as_bytes()).unwrap_err().to_string();
+    assert_eq!(e, "t.ply:7: header: element 'vertex' declared twice");
+    // Binary, and another element.
+    let mut bin =
+        header_with("binary_little_endian", "", "property list uchar int vertex_indices\nelement face 1\nproperty uchar n").into_bytes();
+    bin.extend(binary_triangle());
+    let e = assert_same_readers(&bin).unwrap_err().to_string();
+    assert_eq!(e, "t.ply:9: header: element 'face' declared twice");
+    // A property declared twice in one element; the same name in two elements is fine.
+    let e = assert_same_readers(header_with("ascii", "property float x\n", "property list uchar int vertex_indices").as_bytes())
+        .unwrap_err()
+        .to_string();
+    assert_eq!(e, "t.ply:7: header: property 'x' of element 'vertex' declared twice");
+    let mut ok = header_with("binary_little_endian", "", "property list uchar int vertex_indices\nproperty uchar x").into_bytes();
+    ok.extend(binary_triangle());
+    ok.push(7);
+    assert_eq!(assert_same_readers(&ok).unwrap().mesh.triangles, vec![[0, 1, 2]]);
+}
+
+#[test]
+fn vertex_indices_must_be_a_list_of_integers() {
+    for (decl, shown) in [
+        ("property list uchar float vertex_indices", "property list uchar float vertex_indices"),
+        ("property int vertex_indices", "property int vertex_indices"),
+        ("property  list uint8 float64  vertex_index", "property list uint8 float64 vertex_index"),
+    ] {
+        let name = shown.rsplit(' ').next().unwrap();
+        let want = format!("t.ply:8: header: '{name}' must be a list of integers ('property list uchar int {name}'), not '{shown}'");
+        let ascii = header_with("ascii", "", decl) + "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+        assert_eq!(assert_same_readers(ascii.as_bytes()).unwrap_err().to_string(), want);
+        let mut bin = header_with("binary_big_endian", "", decl).into_bytes();
+        bin.extend([0u8; 64]);
+        assert_eq!(assert_same_readers(&bin).unwrap_err().to_string(), want);
+    }
+    // Every integer type is an index type; other elements' lists are not read.
+    for item in ["char", "uchar", "short", "ushort", "int", "uint", "int8", "uint16", "int32", "uint32"] {
+        let ascii = header_with("ascii", "", &format!("property list uchar {item} vertex_indices")) + "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+        assert_eq!(assert_same_readers(ascii.as_bytes()).unwrap().mesh.triangles, vec![[0, 1, 2]], "{item}");
+    }
+    let other = header_with("ascii", "property list uchar float vertex_indices\n", "property list uchar int vertex_indices")
+        + "0 0 0 0\n1 0 0 1 0.5\n0 1 0 0\n3 0 1 2\n";
+    assert_eq!(assert_same_readers(other.as_bytes()).unwrap().mesh.triangles, vec![[0, 1, 2]]);
+}
+
+#[test]
+fn ascii_lines_with_more_values_than_declared_are_errors_in_both_readers() {
+    let head = header_with("ascii", "", "property list uchar int vertex_indices");
+    let declined = |src: &str| {
+        let mut reader = Reader::new(src.as_bytes());
+        let header = Parser::<Skip>::new().read_header(&mut reader).unwrap();
+        ascii::read(&header, reader.get_ref()).is_none()
+    };
+    let cases = [
+        ("0 0 0 5\n1 0 0\n0 1 0\n3 0 1 2\n", "t.ply:10: element 'vertex' (3 declared): 4 values where the header declares 3"),
+        (
+            "0 0 0\n1 0 0\n0 1 0\n2 0 1 2\n",
+            "t.ply:13: element 'face' (1 declared): the list 'vertex_indices' says 2 values, the line holds 3",
+        ),
+        // The first problem in the file, whichever reader finds it.
+        ("0 0 0\n1 0 0 1\n0 1 0\n3 0 1 nan\n", "t.ply:11: element 'vertex' (3 declared): 4 values where the header declares 3"),
+    ];
+    for (body, want) in cases {
+        let src = format!("{head}{body}");
+        assert!(declined(&src), "{body}");
+        assert_eq!(assert_same_readers(src.as_bytes()).unwrap_err().to_string(), want);
+    }
+    // A problem the record reader names before the line with values too many: its error.
+    let src = format!("{head}0 0 0\n1 0 nan\n0 1 0 9\n3 0 1 2\n");
+    let e = assert_same_readers(src.as_bytes()).unwrap_err().to_string();
+    assert!(e.starts_with("t.ply:11: element 'vertex' (3 declared): Couldn't read element line"), "{e}");
+    // In an element isir skips, after a list that is not the last property.
+    let face = "property list uchar int vertex_indices\nelement material 1\nproperty list uchar float w\nproperty uchar red";
+    let src = header_with("ascii", "", face) + "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n2 0.5 0.25 7 8\n";
+    assert_eq!(
+        assert_same_readers(src.as_bytes()).unwrap_err().to_string(),
+        "t.ply:17: element 'material' (1 declared): 5 values where the header declares 4"
+    );
+    // Spaces, tabs and CRLF around the values are not values.
+    let src = format!("{head}0 0 0 \n\t1 0 0\t\r\n0  1 0\r\n3 0 1 2  \n");
+    assert!(!declined(&src));
+    assert_eq!(assert_same_readers(src.as_bytes()).unwrap().mesh.triangles, vec![[0, 1, 2]]);
+}
