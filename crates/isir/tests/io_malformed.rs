@@ -4,6 +4,7 @@
 
 use isir::io::input::ReadLimits;
 use isir::io::mesh::load_mesh_with;
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 fn dir() -> PathBuf {
@@ -80,4 +81,30 @@ fn ascii_ply_lines_with_values_past_the_declared_ones_are_refused() {
         .as_bytes(),
         ":11: element 'vertex' (3 declared): 4 values where the header declares 3",
     );
+}
+
+fn gz(data: &[u8]) -> Vec<u8> {
+    let mut e = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::default());
+    e.write_all(data).unwrap();
+    e.finish().unwrap()
+}
+
+const TRI_OBJ: &[u8] = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+
+#[test]
+fn gzip_inside_gzip_is_named() {
+    assert_eq!(load("once.obj.gz", &gz(TRI_OBJ)), Ok(1));
+    refused("double.obj.gz", &gz(&gz(TRI_OBJ)), ": the file is compressed twice (gzip inside gzip): decompress it once");
+}
+
+#[test]
+fn bytes_after_the_gzip_data_are_counted() {
+    let mut trail = gz(TRI_OBJ);
+    let end = trail.len();
+    trail.extend(b"garbage\n");
+    refused("trail.obj.gz", &trail, &format!(": 8 bytes after the end of the gzip data (at byte {end}) are not gzip"));
+    // Several members are one file.
+    let mut multi = gz(&TRI_OBJ[..16]);
+    multi.extend(gz(&TRI_OBJ[16..]));
+    assert_eq!(load("multi.obj.gz", &multi), Ok(1));
 }

@@ -9,7 +9,9 @@
 //! - A file larger than [`ReadLimits::max_bytes`] is refused before it is read; a `.gz`
 //!   file is decompressed (every member, as parallel gzip tools write them) and stops with
 //!   an error as soon as its decompressed size passes the same limit, so a small gzip bomb
-//!   cannot exhaust memory.
+//!   cannot exhaust memory. Bytes after the last member that do not start another are an
+//!   error that counts them ("8 bytes after the end of the gzip data (at byte 52) are not
+//!   gzip"), and so is data that is gzip again once decompressed ("compressed twice").
 //! - A BGZF file (the blocked gzip of `bgzip`, whose members each say their size in a
 //!   header field) is inflated on every thread, member by member, into one buffer sized
 //!   by the members' trailers (each at most 64 KiB, the format's bound, and their sum
@@ -183,6 +185,22 @@ pub fn read_file(path: &Path, limits: &ReadLimits) -> Result<Vec<u8>> {
 /// # Errors
 /// Not valid gzip, or more than the limit once decompressed.
 pub fn gunzip(name: &Path, raw: &[u8], limits: &ReadLimits) -> Result<Vec<u8>> {
+    let out = gunzip_once(name, raw, limits)?;
+    // No input isir reads starts so: the data was compressed again after compression.
+    if out.starts_with(&GZIP_MAGIC) {
+        return Err(Error::Input {
+            path: name.to_path_buf(),
+            message: "the file is compressed twice (gzip inside gzip): decompress it once".into(),
+        });
+    }
+    Ok(out)
+}
+
+/// The first bytes of a gzip member: its magic number and the deflate method.
+const GZIP_MAGIC: [u8; 3] = [0x1f, 0x8b, 8];
+
+/// [`gunzip`], one layer of compression.
+fn gunzip_once(name: &Path, raw: &[u8], limits: &ReadLimits) -> Result<Vec<u8>> {
     if let Some(members) = bgzf_members(raw) {
         // More than the limit by the trailers' word: the one-thread reader stops at the
         // limit by what really inflates (or at the first damaged member).
@@ -193,7 +211,54 @@ pub fn gunzip(name: &Path, raw: &[u8], limits: &ReadLimits) -> Result<Vec<u8>> {
             }
         }
     }
-    read_bounded(name, flate2::read::MultiGzDecoder::new(raw), inflated_guess(raw.len() as u64), limits, "decompresses to")
+    read_bounded(name, Members::new(raw), inflated_guess(raw.len() as u64), limits, "decompresses to")
+}
+
+/// Every gzip member of `raw` in turn, read as one stream: `flate2`'s `MultiGzDecoder`,
+/// except that bytes after a member that do not start another are an error that says
+/// so (the decoder took them for a damaged member: "unexpected end of file" or "invalid
+/// gzip header").
+struct Members<'a> {
+    raw: &'a [u8],
+    /// The member being read (the first from the start, whatever its bytes).
+    member: Option<flate2::bufread::GzDecoder<&'a [u8]>>,
+}
+
+impl<'a> Members<'a> {
+    fn new(raw: &'a [u8]) -> Self {
+        Self { raw, member: Some(flate2::bufread::GzDecoder::new(raw)) }
+    }
+}
+
+impl Read for Members<'_> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        if buf.is_empty() {
+            return Ok(0);
+        }
+        loop {
+            if let Some(member) = &mut self.member {
+                let n = member.read(buf)?;
+                if n > 0 {
+                    return Ok(n);
+                }
+                // The member has ended, its trailer checked: what follows it.
+                let rest = self.member.take().map_or(&[][..], flate2::bufread::GzDecoder::into_inner);
+                if rest.is_empty() {
+                    return Ok(0);
+                }
+                if !rest.starts_with(&GZIP_MAGIC[..2]) {
+                    let at = self.raw.len() - rest.len();
+                    return Err(std::io::Error::new(
+                        std::io::ErrorKind::InvalidData,
+                        format!("{} bytes after the end of the gzip data (at byte {at}) are not gzip", rest.len()),
+                    ));
+                }
+                self.member = Some(flate2::bufread::GzDecoder::new(rest));
+            } else {
+                return Ok(0);
+            }
+        }
+    }
 }
 
 /// A BGZF member: its bytes in the file and the size its trailer gives.
@@ -344,6 +409,66 @@ mod tests {
         assert!(read_file(&p, &ReadLimits::default()).unwrap_err().to_string().contains("two.txt.gz"));
     }
 
+    #[test]
+    fn bytes_after_the_gzip_data_are_named_as_such() {
+        let mut trail = gz(b"v 0 0 0\n");
+        let end = trail.len();
+        trail.extend(b"garbage\n");
+        let limits = ReadLimits::default();
+        let e = gunzip(Path::new("trail.obj.gz"), &trail, &limits).unwrap_err().to_string();
+        assert_eq!(e, format!("trail.obj.gz: 8 bytes after the end of the gzip data (at byte {end}) are not gzip"));
+        // After the second of two members, and after BGZF (then not BGZF: read on one thread).
+        let mut two = gz(b"a\n");
+        two.extend(gz(b"b\n"));
+        let at = two.len();
+        two.extend([0u8; 3]);
+        let e = gunzip(Path::new("m.gz"), &two, &limits).unwrap_err().to_string();
+        assert!(e.ends_with(&format!("3 bytes after the end of the gzip data (at byte {at}) are not gzip")), "{e}");
+        let mut blocked = bgzf(b"v 1 2 3\n");
+        blocked.push(b'x');
+        let e = gunzip(Path::new("m.gz"), &blocked, &limits).unwrap_err().to_string();
+        assert!(e.contains("1 bytes after the end of the gzip data"), "{e}");
+        // A third member cut short is still a damaged member, not bytes of something else.
+        let mut cut = gz(b"a\n");
+        cut.extend(&gz(b"b\n")[..6]);
+        let e = gunzip(Path::new("m.gz"), &cut, &limits).unwrap_err().to_string();
+        assert!(!e.contains("not gzip"), "{e}");
+    }
+
+    #[test]
+    fn members_read_as_flate2s_multi_member_decoder_reads_them() {
+        let flate2 = |raw: &[u8]| {
+            let mut out = Vec::new();
+            flate2::read::MultiGzDecoder::new(raw).read_to_end(&mut out).map(|_| out).map_err(|e| e.to_string())
+        };
+        let ours = |raw: &[u8]| {
+            let mut out = Vec::new();
+            Members::new(raw).read_to_end(&mut out).map(|_| out).map_err(|e| e.to_string())
+        };
+        let data: Vec<u8> = (0..50_000u32).flat_map(|i| format!("v {i} 0 1\n").into_bytes()).collect();
+        let mut three = gz(&data);
+        three.extend(gz(b""));
+        three.extend(gz(b"f 1 2 3\n"));
+        let mut damaged = three.clone();
+        damaged[40] ^= 0x55;
+        for raw in [gz(&data), three.clone(), bgzf(&data), Vec::new(), b"not gzip".to_vec(), three[..three.len() - 3].to_vec(), damaged] {
+            assert_eq!(ours(&raw), flate2(&raw));
+        }
+        assert_eq!(ours(&three).unwrap().len(), data.len() + 8);
+    }
+
+    #[test]
+    fn gzip_inside_gzip_is_named() {
+        let twice = gz(&gz(b"v 0 0 0\n"));
+        let (_dir, p) = tmp("double.obj.gz");
+        std::fs::write(&p, &twice).unwrap();
+        let e = read_file(&p, &ReadLimits::default()).unwrap_err().to_string();
+        assert!(e.ends_with("double.obj.gz: the file is compressed twice (gzip inside gzip): decompress it once"), "{e}");
+        // Once: read.
+        std::fs::write(&p, gz(b"v 0 0 0\n")).unwrap();
+        assert_eq!(read_file(&p, &ReadLimits::default()).unwrap(), b"v 0 0 0\n");
+    }
+
     /// `data` as `bgzip` writes it: members of at most 65,280 bytes, each saying its
     /// size, then the format's empty last member.
     fn bgzf(data: &[u8]) -> Vec<u8> {
@@ -366,7 +491,7 @@ mod tests {
 
     /// What the one-thread reader makes of `raw`.
     fn serial(raw: &[u8], limits: &ReadLimits) -> std::result::Result<Vec<u8>, String> {
-        read_bounded(Path::new("m.gz"), flate2::read::MultiGzDecoder::new(raw), 0, limits, "decompresses to").map_err(|e| e.to_string())
+        read_bounded(Path::new("m.gz"), Members::new(raw), 0, limits, "decompresses to").map_err(|e| e.to_string())
     }
 
     #[test]
