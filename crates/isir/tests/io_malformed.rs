@@ -108,3 +108,36 @@ fn bytes_after_the_gzip_data_are_counted() {
     multi.extend(gz(&TRI_OBJ[16..]));
     assert_eq!(load("multi.obj.gz", &multi), Ok(1));
 }
+
+/// A one-triangle glTF file of `asset.version` `version`.
+fn gltf(version: &str) -> String {
+    format!(
+        r#"{{"asset": {{"version": "{version}"}}, "scene": 0, "scenes": [{{"nodes": [0]}}], "nodes": [{{"mesh": 0}}],
+"buffers": [{{"byteLength": 44, "uri": "data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAAAAABAAIAAAA="}}],
+"bufferViews": [{{"buffer": 0, "byteOffset": 0, "byteLength": 36}}, {{"buffer": 0, "byteOffset": 36, "byteLength": 6}}],
+"accessors": [{{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]}},
+{{"bufferView": 1, "componentType": 5123, "count": 3, "type": "SCALAR"}}],
+"meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0}}, "indices": 1}}]}}]}}"#
+    )
+}
+
+#[test]
+fn gltf_versions_other_than_2_are_refused() {
+    assert_eq!(load("v2.gltf", gltf("2.0").as_bytes()), Ok(1));
+    assert_eq!(load("v21.gltf", gltf("2.1").as_bytes()), Ok(1));
+    refused("v1.gltf", gltf("1.0").as_bytes(), ": glTF 1.0 is not supported (only 2.x)");
+    refused("v3.gltf", gltf("3.0").as_bytes(), ": glTF 3.0 is not supported (only 2.x)");
+    refused("vx.gltf", gltf("two").as_bytes(), ": asset.version 'two' is not a glTF version (only glTF 2.x is supported)");
+    // A glTF 1.0 file as 1.0 lays it out (objects by name, not arrays): the version, not
+    // what 2.0 finds wrong in it.
+    let v1 = r#"{"asset": {"version": "1.0"}, "scene": "s", "scenes": {"s": {"nodes": ["n"]}}, "nodes": {"n": {"meshes": ["m"]}}, "meshes": {"m": {"primitives": []}}}"#;
+    refused("real1.gltf", v1.as_bytes(), ": glTF 1.0 is not supported (only 2.x)");
+    // Binary glTF 1.0 (KHR_binary_glTF): version 1 in the GLB header.
+    let mut glb = b"glTF".to_vec();
+    glb.extend(1u32.to_le_bytes());
+    glb.extend(32u32.to_le_bytes());
+    glb.extend(12u32.to_le_bytes());
+    glb.extend(0u32.to_le_bytes());
+    glb.extend(b"{\"a\": 1}    ");
+    refused("v1.glb", &glb, ": glTF 1.0 (binary) is not supported (only 2.x)");
+}

@@ -9,6 +9,8 @@
 //! malformed file is an error naming the file and the element, never a panic in the
 //! reader; buffers are read within the input limit ([`crate::io::input`]). Bad input,
 //! case by case:
+//! - a version other than 2.x (`asset.version`, the GLB header's): an error ("glTF 1.0 is
+//!   not supported (only 2.x)"), also when the file is not valid 2.0 otherwise;
 //! - invalid JSON or GLB, a validation failure, a missing or short buffer, an accessor
 //!   outside its data, a cycle in the node hierarchy, an index past the last vertex:
 //!   an error;
@@ -39,6 +41,34 @@ use glam::{Mat3, Mat4, Vec2, Vec3};
 use gltf::accessor::{DataType, Dimensions};
 use gltf::mesh::Mode;
 use std::path::Path;
+
+/// Why a file of `asset.version` `version` is not read: any but 2.x.
+fn version_problem(version: &str) -> Option<String> {
+    if version.split('.').next() == Some("2") {
+        return None;
+    }
+    let shown: String = version.chars().take(20).collect();
+    Some(if version.split('.').all(|p| !p.is_empty() && p.bytes().all(|b| b.is_ascii_digit())) {
+        format!("glTF {shown} is not supported (only 2.x)")
+    } else {
+        format!("asset.version '{shown}' is not a glTF version (only glTF 2.x is supported)")
+    })
+}
+
+/// For a file the `gltf` crate refuses, the version problem when it is of another glTF
+/// version: a GLB header of version 1, or JSON whose `asset.version` is not 2.x.
+fn unsupported_version(bytes: &[u8]) -> Option<String> {
+    if is_glb(bytes) {
+        let v = u32::from_le_bytes(bytes.get(4..8)?.try_into().ok()?);
+        return match v {
+            1 => Some("glTF 1.0 (binary) is not supported (only 2.x)".into()),
+            2 => None,
+            v => Some(format!("GLB version {v} is not supported (only 2)")),
+        };
+    }
+    let json: gltf::json::Value = gltf::json::deserialize::from_slice(bytes).ok()?;
+    version_problem(json.get("asset")?.get("version")?.as_str()?)
+}
 
 /// True when `bytes` are binary glTF.
 #[must_use]
@@ -94,10 +124,17 @@ fn parse_inner(
     limits: &ReadLimits,
 ) -> Result<(Vec<LoadedMesh>, Option<Placements>)> {
     let fail = |message: String| Error::Mesh { path: path.to_path_buf(), line: None, message };
-    let gltf = gltf::Gltf::from_slice(bytes).map_err(|e| match e {
-        gltf::Error::Deserialize(j) => Error::Mesh { path: path.to_path_buf(), line: Some(j.line()), message: format!("JSON: {j}") },
-        e => fail(format!("{e}")),
+    let gltf = gltf::Gltf::from_slice(bytes).map_err(|e| match unsupported_version(bytes) {
+        // glTF 1.0 is laid out otherwise: say so rather than what 2.0 finds wrong in it.
+        Some(message) => fail(message),
+        None => match e {
+            gltf::Error::Deserialize(j) => Error::Mesh { path: path.to_path_buf(), line: Some(j.line()), message: format!("JSON: {j}") },
+            e => fail(format!("{e}")),
+        },
     })?;
+    if let Some(message) = version_problem(&gltf.document.as_json().asset.version) {
+        return Err(fail(message));
+    }
     let doc = &gltf.document;
     // ---- Buffers ----
     let mut buffers: Vec<Vec<u8>> = Vec::new();
