@@ -22,7 +22,10 @@ pub struct Camera {
 
 impl Camera {
     /// A camera at `position` looking at `look_at`, vertical field of view `fovy_degrees`,
-    /// `aspect` = width / height.
+    /// `aspect` = width / height. Not checked here: a NaN position, `look_at` at the
+    /// position, `up` along the view or a field of view outside (0°, 180°) make rays that
+    /// miss everything, an image of the background; [`crate::CameraDesc::validate`] says
+    /// which (scene files and [`crate::SceneDescription::build`] call it).
     #[must_use]
     pub fn new(position: Vec3, look_at: Vec3, up: Vec3, fovy_degrees: f32, aspect: f32) -> Self {
         let focal = 1.0;

@@ -127,8 +127,21 @@ impl Renderer {
     }
 
     /// Render on the current rayon pool.
+    ///
+    /// # Panics
+    /// If the image is larger than [`crate::io::image::MAX_PIXELS`] (check the size first
+    /// with [`crate::io::image::check_size`], as the `isir` command does): a render takes
+    /// about 15 bytes a pixel, and more than that would fail to allocate.
     #[must_use]
     pub fn render(&self, scene: &Scene, camera: &Camera, integrator: &Integrator) -> (Image, RenderStats) {
+        let pixels = u64::from(self.width) * u64::from(self.height);
+        assert!(
+            pixels <= crate::io::image::MAX_PIXELS,
+            "{}x{}: more pixels than the {} a render may have (io::image::check_size)",
+            self.width,
+            self.height,
+            crate::io::image::MAX_PIXELS
+        );
         self.render_with_progress(scene, camera, integrator, &|_| {})
     }
 

@@ -64,3 +64,26 @@ fn shapes_lights_and_materials_that_cannot_be_traced_are_named() {
     let fine = Scene::new(vec![sphere("s", Vec3::ZERO, 1.0, vec![0])], vec![Material::Mirror], vec![], Vec3::ZERO);
     assert!(fine.warnings.is_empty(), "{:?}", fine.warnings);
 }
+
+/// Sizes past the limit are refused before anything is allocated: a render with a clear
+/// panic (documented; the `isir` command checks first), a ray set with an error.
+#[test]
+#[should_panic(expected = "100000x100000: more pixels than the 268435456 a render may have")]
+fn a_render_past_the_pixel_limit_panics_before_allocating() {
+    let scene = Scene::new(vec![sphere("s", Vec3::ZERO, 1.0, vec![0])], vec![Material::Mirror], vec![], Vec3::ZERO);
+    let r = Renderer::new(100_000, 100_000);
+    let _ = r.render(&scene, &CameraDesc::new(Vec3::new(0.0, 0.0, -4.0), Vec3::ZERO).build(1.0), &Integrator::RayCast);
+}
+
+#[test]
+fn a_ray_set_past_the_pixel_limit_is_an_error_and_pixels_outside_an_image_panic() {
+    let scene = Scene::new(vec![sphere("s", Vec3::ZERO, 1.0, vec![0])], vec![Material::Mirror], vec![], Vec3::ZERO);
+    let camera = CameraDesc::new(Vec3::new(0.0, 0.0, -4.0), Vec3::ZERO).build(1.0);
+    let e = isir::io::rays::generate(&scene, &camera, 100_000, 100_000, isir::io::rays::RayKind::Primary, 0).unwrap_err();
+    assert!(e.to_string().contains("more than the 268435456"), "{e}");
+    // An x past the width named another row's pixel.
+    let image = isir::Image::new(4, 4);
+    let outside = std::panic::catch_unwind(|| image.get(5, 0)).unwrap_err();
+    let message = outside.downcast_ref::<String>().cloned().unwrap_or_default();
+    assert!(message.contains("pixel (5, 0) outside the 4x4 image"), "{message}");
+}

@@ -111,17 +111,27 @@ impl Image {
         Self { width, height, pixels: vec![Color::ZERO; width as usize * height as usize] }
     }
 
+    /// # Panics
+    /// If `(x, y)` is outside the image (an `x` past the width would name another row's
+    /// pixel).
     fn index(&self, x: u32, y: u32) -> usize {
+        assert!(x < self.width && y < self.height, "pixel ({x}, {y}) outside the {}x{} image", self.width, self.height);
         y as usize * self.width as usize + x as usize
     }
 
     /// The pixel at column `x`, row `y`.
     #[must_use]
+    ///
+    /// # Panics
+    /// If `(x, y)` is outside the image.
     pub fn get(&self, x: u32, y: u32) -> Color {
         self.pixels[self.index(x, y)]
     }
 
     /// Set the pixel at column `x`, row `y`.
+    ///
+    /// # Panics
+    /// If `(x, y)` is outside the image.
     pub fn set(&mut self, x: u32, y: u32, c: Color) {
         let i = self.index(x, y);
         self.pixels[i] = c;

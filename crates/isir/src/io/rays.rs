@@ -253,8 +253,11 @@ impl std::str::FromStr for RayKind {
 /// The ray set of a scene seen by `camera` at `width × height`. Deterministic for a seed.
 ///
 /// # Errors
-/// Shadow rays of a scene without lights.
+/// Shadow rays of a scene without lights; more rays than an image may have pixels
+/// ([`crate::io::image::check_size`]: 32 bytes a ray held at once; [`write_ray_set`]
+/// streams larger sets to a file).
 pub fn generate(scene: &Scene, camera: &Camera, width: u32, height: u32, kind: RayKind, seed: u64) -> Result<Vec<RayRecord>> {
+    crate::io::image::check_size(width, height)?;
     check_kind(scene, kind)?;
     Ok(generate_rows(scene, camera, width, height, kind, seed, 0..height))
 }

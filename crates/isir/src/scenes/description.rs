@@ -39,7 +39,8 @@ impl CameraDesc {
         Self { position, look_at, up: Vec3::Y, fovy: 60.0 }
     }
 
-    /// The camera for an image of this aspect ratio (width / height).
+    /// The camera for an image of this aspect ratio (width / height); unchecked, as
+    /// [`Camera::new`] (see [`CameraDesc::validate`]).
     #[must_use]
     pub fn build(&self, aspect: f32) -> Camera {
         Camera::new(self.position, self.look_at, self.up, self.fovy, aspect)
