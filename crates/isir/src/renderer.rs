@@ -88,7 +88,7 @@ pub struct Renderer {
     /// Image height in pixels.
     pub height: u32,
     /// Samples per pixel (the course's `nbPixelSamples`). One sample goes through the
-    /// pixel centre; more are jittered uniformly over the pixel.
+    /// pixel centre; more are jittered uniformly over the pixel. 0 renders as 1.
     pub spp: u32,
     /// Seed of every random number of the render.
     pub seed: u64,
@@ -142,6 +142,10 @@ impl Renderer {
             self.height,
             crate::io::image::MAX_PIXELS
         );
+        if self.spp == 0 {
+            // Set through the field, past `spp()`'s clamp: no sample gave a black image.
+            return Renderer { spp: 1, ..self.clone() }.render(scene, camera, integrator);
+        }
         self.render_with_progress(scene, camera, integrator, &|_| {})
     }
 

@@ -87,3 +87,17 @@ fn a_ray_set_past_the_pixel_limit_is_an_error_and_pixels_outside_an_image_panic(
     let message = outside.downcast_ref::<String>().cloned().unwrap_or_default();
     assert!(message.contains("pixel (5, 0) outside the 4x4 image"), "{message}");
 }
+
+/// `spp` 0 set through the field (past `Renderer::spp`'s clamp) renders as 1 sample: it
+/// rendered no sample, a black image.
+#[test]
+fn zero_samples_through_the_field_render_as_one() {
+    let point = Light::Point { position: Vec3::new(0.0, 3.0, -3.0), color: WHITE, power: 50.0 };
+    let scene = Scene::new(vec![sphere("s", Vec3::ZERO, 1.0, vec![0])], vec![Material::Lambert(WHITE)], vec![point], Vec3::ZERO);
+    let camera = CameraDesc::new(Vec3::new(0.0, 0.0, -4.0), Vec3::ZERO).build(1.0);
+    let integrator = Integrator::DirectLighting { light_samples: 1 };
+    let one = Renderer::new(8, 8).spp(1).render(&scene, &camera, &integrator).0;
+    let zero = Renderer { spp: 0, ..Renderer::new(8, 8) }.render(&scene, &camera, &integrator).0;
+    assert_eq!(zero.pixels, one.pixels);
+    assert!(one.pixels.iter().any(|p| p.max_element() > 0.0));
+}
