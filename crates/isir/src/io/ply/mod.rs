@@ -226,7 +226,8 @@ fn parse_ply_by(path: &Path, bytes: &[u8], direct: bool) -> Result<LoadedMesh> {
 /// property declared twice in one element (the crate keeps the last declaration in the
 /// first one's place, and the body is then read with the wrong layout); a face's
 /// `vertex_indices` (or `vertex_index`) that is not a list of integers (the crate gives
-/// the faces no indices: they would all be dropped as faces of no vertices).
+/// the faces no indices: they would all be dropped as faces of no vertices); a format
+/// version other than 1.0.
 fn check_header(text: &[u8]) -> std::result::Result<(), (usize, String)> {
     use std::collections::HashSet;
     let mut elements: HashSet<&str> = HashSet::new();
@@ -237,6 +238,10 @@ fn check_header(text: &[u8]) -> std::result::Result<(), (usize, String)> {
         let Ok(line) = std::str::from_utf8(line) else { continue };
         let tokens: Vec<&str> = line.split_ascii_whitespace().collect();
         match tokens[..] {
+            // PLY has one version, 1.0 (the crate reads any number there).
+            ["format", _, version] if version != "1.0" => {
+                return Err((k + 1, format!("format version {version}: PLY has only version 1.0")));
+            }
             ["element", name, ..] => {
                 if !elements.insert(name) {
                     return Err((k + 1, format!("element '{name}' declared twice")));

@@ -422,6 +422,10 @@ fn an_element_or_property_declared_twice_is_an_error_naming_its_header_line() {
     ok.extend(binary_triangle());
     ok.push(7);
     assert_eq!(assert_same_readers(&ok).unwrap().mesh.triangles, vec![[0, 1, 2]]);
+    // A format version PLY does not have.
+    let v2 = ascii.replacen("format ascii 1.0", "format ascii 2.0", 1).replacen(vertex, "", 1);
+    let e = assert_same_readers(v2.as_bytes()).unwrap_err().to_string();
+    assert_eq!(e, "t.ply:2: header: format version 2.0: PLY has only version 1.0");
 }
 
 #[test]
