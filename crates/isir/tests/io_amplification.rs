@@ -40,7 +40,9 @@ fn an_obj_texture_named_by_many_materials_is_decoded_once() {
     let d = tmp();
     std::fs::write(d.path().join("t.png"), png(3, 2)).unwrap();
     std::fs::write(d.path().join("other.png"), png(3, 2)).unwrap();
-    let mut mtl: String = (0..8).map(|i| format!("newmtl m{i}\nKd 1 1 1\nmap_Kd t.png\n")).collect();
+    // However the file is written: `t.png`, `./t.png`, `sub/../t.png`.
+    std::fs::create_dir(d.path().join("sub")).unwrap();
+    let mut mtl: String = (0..8).map(|i| format!("newmtl m{i}\nKd 1 1 1\nmap_Kd {}t.png\n", ["", "./", "sub/../"][i % 3])).collect();
     mtl += "newmtl m8\nKd 1 1 1\nmap_Kd -bm 1 other.png\n";
     std::fs::write(d.path().join("many.mtl"), mtl).unwrap();
     std::fs::write(d.path().join("many.obj"), obj(9, &["many.mtl"])).unwrap();

@@ -136,7 +136,9 @@ pub fn parse_obj_beside(path: &Path, bytes: &[u8], limits: &ReadLimits) -> Resul
         // MTL options (`-bm 1 -s 2 2 file.png`) come first; the file is the last word.
         let file = name.split_whitespace().last().unwrap_or(&name).to_string();
         let p = dir.join(&file);
-        match textures.get(p.clone(), || input::read_file(&p, limits).map_err(|e| e.to_string())) {
+        // The key is the file itself, however it is written (`big.png`, `./big.png`).
+        let key = p.canonicalize().unwrap_or_else(|_| p.clone());
+        match textures.get(key, || input::read_file(&p, limits).map_err(|e| e.to_string())) {
             Ok(t) => m.texture = Some(t),
             Err(why) => loaded.warnings.push(format!("material '{}': texture {file}: {why}; its flat colour is used", m.name)),
         }
