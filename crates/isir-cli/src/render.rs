@@ -198,6 +198,12 @@ fn render_in_pool(a: &RenderArgs, width: u32, height: u32) -> anyhow::Result<()>
     let t0 = Instant::now();
     let (desc, scene) = build_scene(&name, accel, test)?;
     let build_s = t0.elapsed().as_secs_f64();
+    // What the meshes read (material libraries, textures, glTF buffers) is known once they
+    // are loaded: still before rendering.
+    let inputs: Vec<(String, PathBuf)> = scene.inputs.iter().map(|p| ("a file the scene reads,".to_string(), p.clone())).collect();
+    for out in std::iter::once(a.output.clone()).chain(a.aov.iter().map(|&aov| aov_path(&a.output, aov))) {
+        crate::args::check_not_an_input("-o", &out, &inputs)?;
+    }
     warn_all(&scene.warnings);
 
     // The scene's light samples and bounces carry over to the integrator chosen.

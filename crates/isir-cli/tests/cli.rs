@@ -1199,6 +1199,36 @@ fn an_output_that_is_an_input_is_refused_and_the_input_kept() {
     assert!(hits.exists());
 }
 
+/// What a mesh reads besides itself (its material library, its texture) is an input too:
+/// an image written over the texture, rays over the library, hits over either, refused.
+#[test]
+fn a_file_the_mesh_reads_is_an_input_too() {
+    let dir = fresh_dir("same-file-side");
+    let obj = dir.join("m.obj");
+    std::fs::write(&obj, "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nusemtl a\nf 1/1 2/2 3/3\n").unwrap();
+    let (mtl, tex) = (dir.join("m.mtl"), dir.join("tex.png"));
+    std::fs::write(&mtl, "newmtl a\nKd 1 1 1\nmap_Kd tex.png\n").unwrap();
+    // The texture: any PNG (isir's own render of a sphere).
+    let (code, _, err) = isir(&["render", "tp1-sphere", "--width", "4", "--height", "4", "-o", tex.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    let (tex_bytes, mtl_text) = (std::fs::read(&tex).unwrap(), std::fs::read_to_string(&mtl).unwrap());
+    let rays = dir.join("r.rays");
+    let (code, _, err) = isir(&["rays", "tp4-sphere", "--kind", "primary", "-o", rays.to_str().unwrap(), "--width", "4", "--height", "2"]);
+    assert_eq!(code, 0, "{err}");
+    let (o, t, l, r) = (obj.to_str().unwrap(), tex.to_str().unwrap(), mtl.to_str().unwrap(), rays.to_str().unwrap());
+    for (args, needle) in [
+        (vec!["render", o, "-o", t, "--width", "8", "--height", "8"], format!("-o {t}: the same file as a file the scene reads")),
+        (vec!["rays", o, "--kind", "primary", "-o", l], format!("-o {l}: the same file as a file the scene reads")),
+        (vec!["trace", o, r, "--hits", t], format!("--hits {t}: the same file as a file the mesh reads")),
+    ] {
+        let (code, out, err) = isir_within(10, &args);
+        one_line_error(code, &err, &needle);
+        assert!(out.is_empty(), "{args:?}: {out}");
+        assert_eq!(std::fs::read(&tex).unwrap(), tex_bytes, "{args:?}: the texture was changed");
+        assert_eq!(std::fs::read_to_string(&mtl).unwrap(), mtl_text, "{args:?}: the material library was changed");
+    }
+}
+
 /// Stopped by Ctrl-C or `kill` while it writes, `isir rays` leaves no temporary file (found
 /// by an audit: a SIGTERM left a 33 MB `.big.rays.tmp-PID-1`), and ends with status 130.
 #[cfg(unix)]

@@ -109,6 +109,9 @@ fn the_bunny_as_gltf_in_every_packaging_is_the_obj_bunny() {
         assert_eq!(m.materials[0].name, "gold");
         assert_eq!(m.materials[0].diffuse, Vec3::new(1.0, 0.85, 0.57));
         assert!(m.mesh.material_slots.iter().all(|&s| s == 0));
+        // The files it read besides itself: the external buffer only.
+        let files = if name == "bunny-external.gltf" { vec![d.join("bunny data.bin")] } else { vec![] };
+        assert_eq!(m.files, files, "{name}");
     }
 }
 

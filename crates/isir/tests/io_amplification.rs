@@ -54,6 +54,8 @@ fn an_obj_texture_named_by_many_materials_is_decoded_once() {
     assert!(!Arc::ptr_eq(&textures[8], &textures[0]));
     assert_eq!(Arc::strong_count(&textures[0]), 8 + 8, "the materials' and this test's");
     assert!(m.warnings.is_empty(), "{:?}", m.warnings);
+    // The files the load read besides the OBJ: its library, then each image once.
+    assert_eq!(m.files, [d.path().join("many.mtl"), d.path().join("t.png"), d.path().join("other.png")]);
 }
 
 #[test]

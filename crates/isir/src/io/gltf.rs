@@ -323,7 +323,7 @@ fn parse_inner(
         }
         warnings.extend(crate::io::obj::mesh_warnings(&mesh, true));
         let format = if is_glb(bytes) { "glTF 2.0 (binary .glb)" } else { "glTF 2.0" }.into();
-        results.push(LoadedMesh { mesh, materials: materials.clone(), warnings, format });
+        results.push(LoadedMesh { mesh, materials: materials.clone(), warnings, format, files: Vec::new() });
     }
     Ok((results, instance_list))
 }

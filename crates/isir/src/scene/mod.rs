@@ -49,6 +49,10 @@ pub struct Scene {
     /// What loading found odd but could handle (degenerate triangles, missing files of
     /// materials...), one line each.
     pub warnings: Vec<String>,
+    /// The files the scene's meshes were read from and what those read (material
+    /// libraries, textures, glTF buffers and images), for a caller that must not write
+    /// over an input; empty for a scene made in code.
+    pub inputs: Vec<std::path::PathBuf>,
     /// A BVH over the bounded objects' world boxes, when there are many of them (see
     /// [`Scene::build_top_level`]); `None`: the objects are tried one by one.
     pub top_level: Option<TopLevel>,
@@ -101,6 +105,7 @@ impl Scene {
             lights,
             background,
             warnings: Vec::new(),
+            inputs: Vec::new(),
             top_level: None,
             flat: None,
             shafts: Vec::new(),

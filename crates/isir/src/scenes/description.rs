@@ -295,6 +295,8 @@ impl SceneDescription {
         };
         let mut objects = Vec::new();
         let mut warnings = Vec::new();
+        // The files the meshes were read from, and what those read (`Scene::inputs`).
+        let mut inputs: Vec<std::path::PathBuf> = Vec::new();
         // Meshes placed by several instances: loaded and built once (the mesh, the file's
         // materials, their ids once pushed).
         type Shared = (std::sync::Arc<TriangleMesh>, Vec<FileMaterial>, Option<Vec<MaterialId>>);
@@ -325,8 +327,9 @@ impl SceneDescription {
                 ShapeDesc::MeshInstance { source, shading, transform } => {
                     let key = format!("{source:?} {shading:?}");
                     if !shared.contains_key(&key) {
-                        let (mesh, file_mats, notes) =
-                            self.prepare_mesh(&desc.name, source, *shading, accel, triangle_test).map_err(|e| in_object(&what, e))?;
+                        let (mesh, file_mats, notes) = self
+                            .prepare_mesh(&desc.name, source, *shading, accel, triangle_test, &mut inputs)
+                            .map_err(|e| in_object(&what, e))?;
                         warnings.extend(notes);
                         shared.insert(key.clone(), (std::sync::Arc::new(mesh), file_mats, None));
                     }
@@ -346,8 +349,14 @@ impl SceneDescription {
                 ShapeDesc::Mesh { source, shading } => {
                     let loaded = match source {
                         MeshSource::File(path) => match mesh::load_mesh_file(path).map_err(|e| in_object(&what, e))? {
-                            mesh::MeshFile::One(m) => *m,
+                            mesh::MeshFile::One(m) => {
+                                inputs.push(path.clone());
+                                inputs.extend(m.files.iter().cloned());
+                                *m
+                            }
                             mesh::MeshFile::Instances(meshes, placements) => {
+                                inputs.push(path.clone());
+                                inputs.extend(meshes.iter().flat_map(|m| m.files.iter().cloned()));
                                 // glTF nodes sharing a mesh: each mesh built once, each node an instance.
                                 let mut built = Vec::new();
                                 let mut ids: Option<Vec<MaterialId>> = None;
@@ -423,6 +432,9 @@ impl SceneDescription {
         // description, which refuses what `Scene::new` would warn about).
         warnings.append(&mut scene.warnings);
         scene.warnings = warnings;
+        inputs.sort();
+        inputs.dedup();
+        scene.inputs = inputs;
         Ok(scene)
     }
 
@@ -435,9 +447,15 @@ impl SceneDescription {
         shading: Shading,
         accel: Accel,
         triangle_test: TriangleTest,
+        inputs: &mut Vec<std::path::PathBuf>,
     ) -> Result<(TriangleMesh, Vec<FileMaterial>, Vec<String>)> {
         let loaded = match source {
-            MeshSource::File(path) => mesh::load_mesh(path)?,
+            MeshSource::File(path) => {
+                let loaded = mesh::load_mesh(path)?;
+                inputs.push(path.clone());
+                inputs.extend(loaded.files.iter().cloned());
+                loaded
+            }
             MeshSource::Builtin(model) => crate::scenes::load_builtin_model(model)?,
         };
         let mut notes: Vec<String> = loaded.warnings.iter().map(|w| format!("{name}: {w}")).collect();

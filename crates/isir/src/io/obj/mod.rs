@@ -45,7 +45,7 @@ use glam::Vec3;
 use scan::*;
 use std::borrow::Cow;
 use std::cell::RefCell;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// A material read from an MTL file.
 #[derive(Clone, Debug, PartialEq)]
@@ -71,6 +71,9 @@ pub struct LoadedMesh {
     pub warnings: Vec<String>,
     /// The file's format, for people: `Wavefront OBJ`, `PLY (binary little endian)`, ...
     pub format: String,
+    /// The other files the load read (material libraries, textures, glTF buffers and
+    /// images), for a caller that must not write over an input.
+    pub files: Vec<PathBuf>,
 }
 
 /// The input limits from the environment (see [`ReadLimits::from_env`]), or an error
@@ -131,6 +134,7 @@ pub fn parse_obj_beside(path: &Path, bytes: &[u8], limits: &ReadLimits) -> Resul
     // that cannot be read is a warning and its material keeps its flat colour.
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
     let mut textures = Textures::new(limits);
+    let mut files = Vec::new();
     for m in &mut loaded.materials {
         let Some(name) = m.texture_name.clone() else { continue };
         // MTL options (`-bm 1 -s 2 2 file.png`) come first; the file is the last word.
@@ -138,28 +142,41 @@ pub fn parse_obj_beside(path: &Path, bytes: &[u8], limits: &ReadLimits) -> Resul
         let p = dir.join(&file);
         // The key is the file itself, however it is written (`big.png`, `./big.png`).
         let key = p.canonicalize().unwrap_or_else(|_| p.clone());
-        match textures.get(key, || input::read_file(&p, limits).map_err(|e| e.to_string())) {
+        let read = || {
+            files.push(p.clone());
+            input::read_file(&p, limits).map_err(|e| e.to_string())
+        };
+        match textures.get(key, read) {
             Ok(t) => m.texture = Some(t),
             Err(why) => loaded.warnings.push(format!("material '{}': texture {file}: {why}; its flat colour is used", m.name)),
         }
     }
+    loaded.files.extend(files);
     Ok(loaded)
 }
 
 /// [`parse_obj_beside`] without the textures.
 fn parse_obj_only(path: &Path, bytes: &[u8], limits: &ReadLimits) -> Result<LoadedMesh> {
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    parse_obj(path, bytes, |mtl| {
+    let files = std::cell::RefCell::new(Vec::new());
+    let mut loaded = parse_obj(path, bytes, |mtl| {
         let p = dir.join(mtl);
         let not_found = |e: &Error| matches!(e, Error::Io { source, .. } if source.kind() == std::io::ErrorKind::NotFound);
-        match input::read_file(&p, limits) {
-            Err(e) if not_found(&e) => match input::read_file(&p.with_extension("mtl.gz"), limits) {
+        let read = |p: PathBuf| {
+            let r = input::read_file(&p, limits);
+            files.borrow_mut().push(p);
+            r
+        };
+        match read(p.clone()) {
+            Err(e) if not_found(&e) => match read(p.with_extension("mtl.gz")) {
                 Err(e) if not_found(&e) => Err(Error::Input { path: p, message: "not found".into() }),
                 r => r,
             },
             r => r,
         }
-    })
+    })?;
+    loaded.files = files.into_inner();
+    Ok(loaded)
 }
 
 /// Parse OBJ bytes. `mtl_loader` returns the bytes of a material library named by
@@ -309,7 +326,7 @@ fn parse_obj_by(
         mesh.uvs = uvs; // unused by the course's materials so far, kept for textures
     }
     warnings.extend(mesh_warnings(&mesh, report_degenerate));
-    Ok(LoadedMesh { mesh, materials, warnings, format: "Wavefront OBJ".into() })
+    Ok(LoadedMesh { mesh, materials, warnings, format: "Wavefront OBJ".into(), files: Vec::new() })
 }
 
 /// What every mesh reader says about the mesh it made: no triangles, and, when

@@ -420,5 +420,5 @@ fn finish(body: Body, header: &ply_rs_bw::ply::Header) -> Result<LoadedMesh> {
         ply_rs_bw::ply::Encoding::BinaryLittleEndian => "PLY (binary little endian)",
         ply_rs_bw::ply::Encoding::BinaryBigEndian => "PLY (binary big endian)",
     };
-    Ok(LoadedMesh { mesh, materials: Vec::new(), warnings, format: format.into() })
+    Ok(LoadedMesh { mesh, materials: Vec::new(), warnings, format: format.into(), files: Vec::new() })
 }
