@@ -180,6 +180,25 @@ pub fn read_file(path: &Path, limits: &ReadLimits) -> Result<Vec<u8>> {
     }
 }
 
+/// [`read_file`] for the files a mesh file names (material libraries, textures, glTF
+/// buffers and images), each noted as it is asked for, read or not: what the load read
+/// besides the mesh ([`crate::io::obj::LoadedMesh::files`]).
+#[derive(Debug, Default)]
+pub(crate) struct ReadLog(std::cell::RefCell<Vec<std::path::PathBuf>>);
+
+impl ReadLog {
+    /// [`read_file`], `path` noted.
+    pub(crate) fn read(&self, path: &Path, limits: &ReadLimits) -> Result<Vec<u8>> {
+        self.0.borrow_mut().push(path.to_path_buf());
+        read_file(path, limits)
+    }
+
+    /// The files asked for, in order.
+    pub(crate) fn into_files(self) -> Vec<std::path::PathBuf> {
+        self.0.into_inner()
+    }
+}
+
 /// Decompress gzip bytes (every member) within `limits`; `name` names them in messages.
 ///
 /// # Errors

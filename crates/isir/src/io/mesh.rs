@@ -70,14 +70,11 @@ pub fn load_mesh_file(path: &Path) -> Result<MeshFile> {
         let bytes = input::read_file(path, &limits)?;
         let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
         // The file is parsed once, whether its nodes share meshes or not.
-        let files = std::cell::RefCell::new(Vec::new());
-        let read = |uri: &str| {
-            files.borrow_mut().push(dir.join(uri));
-            input::read_file(&dir.join(uri), &limits)
-        };
-        let (mut meshes, placements) = gltf::parse_gltf_instances(path, &bytes, read, &limits)?;
+        let log = input::ReadLog::default();
+        let (mut meshes, placements) = gltf::parse_gltf_instances(path, &bytes, |uri| log.read(&dir.join(uri), &limits), &limits)?;
+        let files = log.into_files();
         for m in &mut meshes {
-            m.files.clone_from(&files.borrow());
+            m.files.clone_from(&files);
         }
         return Ok(match placements {
             Some(placements) => MeshFile::Instances(meshes, placements),
@@ -90,12 +87,8 @@ pub fn load_mesh_file(path: &Path) -> Result<MeshFile> {
 /// A glTF file's bytes, its external buffers read beside it within `limits`.
 fn load_gltf(path: &Path, bytes: &[u8], limits: &ReadLimits) -> Result<LoadedMesh> {
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    let files = std::cell::RefCell::new(Vec::new());
-    let read = |uri: &str| {
-        files.borrow_mut().push(dir.join(uri));
-        input::read_file(&dir.join(uri), limits)
-    };
-    let mut loaded = gltf::parse_gltf_with(path, bytes, read, limits)?;
-    loaded.files = files.into_inner();
+    let log = input::ReadLog::default();
+    let mut loaded = gltf::parse_gltf_with(path, bytes, |uri| log.read(&dir.join(uri), limits), limits)?;
+    loaded.files = log.into_files();
     Ok(loaded)
 }

@@ -134,7 +134,7 @@ pub fn parse_obj_beside(path: &Path, bytes: &[u8], limits: &ReadLimits) -> Resul
     // that cannot be read is a warning and its material keeps its flat colour.
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
     let mut textures = Textures::new(limits);
-    let mut files = Vec::new();
+    let log = input::ReadLog::default();
     for m in &mut loaded.materials {
         let Some(name) = m.texture_name.clone() else { continue };
         // MTL options (`-bm 1 -s 2 2 file.png`) come first; the file is the last word.
@@ -142,40 +142,31 @@ pub fn parse_obj_beside(path: &Path, bytes: &[u8], limits: &ReadLimits) -> Resul
         let p = dir.join(&file);
         // The key is the file itself, however it is written (`big.png`, `./big.png`).
         let key = p.canonicalize().unwrap_or_else(|_| p.clone());
-        let read = || {
-            files.push(p.clone());
-            input::read_file(&p, limits).map_err(|e| e.to_string())
-        };
-        match textures.get(key, read) {
+        match textures.get(key, || log.read(&p, limits).map_err(|e| e.to_string())) {
             Ok(t) => m.texture = Some(t),
             Err(why) => loaded.warnings.push(format!("material '{}': texture {file}: {why}; its flat colour is used", m.name)),
         }
     }
-    loaded.files.extend(files);
+    loaded.files.extend(log.into_files());
     Ok(loaded)
 }
 
 /// [`parse_obj_beside`] without the textures.
 fn parse_obj_only(path: &Path, bytes: &[u8], limits: &ReadLimits) -> Result<LoadedMesh> {
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    let files = std::cell::RefCell::new(Vec::new());
+    let log = input::ReadLog::default();
     let mut loaded = parse_obj(path, bytes, |mtl| {
         let p = dir.join(mtl);
         let not_found = |e: &Error| matches!(e, Error::Io { source, .. } if source.kind() == std::io::ErrorKind::NotFound);
-        let read = |p: PathBuf| {
-            let r = input::read_file(&p, limits);
-            files.borrow_mut().push(p);
-            r
-        };
-        match read(p.clone()) {
-            Err(e) if not_found(&e) => match read(p.with_extension("mtl.gz")) {
+        match log.read(&p, limits) {
+            Err(e) if not_found(&e) => match log.read(&p.with_extension("mtl.gz"), limits) {
                 Err(e) if not_found(&e) => Err(Error::Input { path: p, message: "not found".into() }),
                 r => r,
             },
             r => r,
         }
     })?;
-    loaded.files = files.into_inner();
+    loaded.files = log.into_files();
     Ok(loaded)
 }
 
