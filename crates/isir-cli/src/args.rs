@@ -230,6 +230,13 @@ pub fn same_file(a: &Path, b: &Path) -> bool {
 
 /// Refuse an output (`option` names it: `-o`, `--hits`) that is one of the inputs (`what`,
 /// its path): writing it would replace the input.
+/// `files` as inputs of [`check_not_an_input`], each "a file the `reader` reads" (what a
+/// scene's or a mesh's loading read besides the mesh: material libraries, textures, glTF
+/// buffers).
+pub fn read_by(reader: &str, files: &[PathBuf]) -> Vec<(String, PathBuf)> {
+    files.iter().map(|p| (format!("a file the {reader} reads,"), p.clone())).collect()
+}
+
 pub fn check_not_an_input(option: &str, output: &Path, inputs: &[(String, PathBuf)]) -> anyhow::Result<()> {
     for (what, input) in inputs {
         if same_file(output, input) {

@@ -160,7 +160,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     crate::args::check_scene_arg(name)?;
     let (width, height) = image_size(&a)?;
     isir::image::check_size(width, height)?;
-    let outputs: Vec<PathBuf> = std::iter::once(a.output.clone()).chain(a.aov.iter().map(|&aov| aov_path(&a.output, aov))).collect();
+    let outputs = outputs(&a);
     let inputs = crate::args::scene_inputs(name)?;
     for out in &outputs {
         check_image_extension(out)?;
@@ -177,6 +177,11 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     }
     crate::signals::writing(outputs.iter().map(PathBuf::as_path));
     with_threads(a.threads, || render_in_pool(&a, width, height))?
+}
+
+/// The files a render writes: the image and its AOVs.
+fn outputs(a: &RenderArgs) -> Vec<PathBuf> {
+    std::iter::once(a.output.clone()).chain(a.aov.iter().map(|&aov| aov_path(&a.output, aov))).collect()
 }
 
 /// An image path without an extension is said to be one (the library's message, "unsupported
@@ -200,8 +205,8 @@ fn render_in_pool(a: &RenderArgs, width: u32, height: u32) -> anyhow::Result<()>
     let build_s = t0.elapsed().as_secs_f64();
     // What the meshes read (material libraries, textures, glTF buffers) is known once they
     // are loaded: still before rendering.
-    let inputs: Vec<(String, PathBuf)> = scene.inputs.iter().map(|p| ("a file the scene reads,".to_string(), p.clone())).collect();
-    for out in std::iter::once(a.output.clone()).chain(a.aov.iter().map(|&aov| aov_path(&a.output, aov))) {
+    let inputs = crate::args::read_by("scene", &scene.inputs);
+    for out in outputs(a) {
         crate::args::check_not_an_input("-o", &out, &inputs)?;
     }
     warn_all(&scene.warnings);

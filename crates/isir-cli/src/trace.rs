@@ -97,8 +97,7 @@ pub fn rays(a: RaysArgs) -> anyhow::Result<()> {
     crate::signals::writing([a.output.as_path()]);
     let (desc, scene) = crate::render::build_scene(&a.scene, Accel::BvhSah, isir::triangle::TriangleTest::MollerTrumbore)?;
     // And what its meshes read (material libraries, textures, glTF buffers).
-    let read: Vec<(String, PathBuf)> = scene.inputs.iter().map(|p| ("a file the scene reads,".to_string(), p.clone())).collect();
-    crate::args::check_not_an_input("-o", &a.output, &read)?;
+    crate::args::check_not_an_input("-o", &a.output, &crate::args::read_by("scene", &scene.inputs))?;
     warn_all(&scene.warnings);
     let camera = desc.camera.build(a.width as f32 / a.height as f32);
     // Written as generated, a band of rows at a time: memory bounded whatever the size.
@@ -236,8 +235,7 @@ fn trace_in_pool(a: &TraceArgs) -> anyhow::Result<()> {
     let loaded = load_mesh(&a.mesh)?;
     if let Some(out) = &a.hits {
         // What the mesh read besides itself (material libraries, textures, glTF buffers).
-        let read: Vec<(String, PathBuf)> = loaded.files.iter().map(|p| ("a file the mesh reads,".to_string(), p.clone())).collect();
-        crate::args::check_not_an_input("--hits", out, &read)?;
+        crate::args::check_not_an_input("--hits", out, &crate::args::read_by("mesh", &loaded.files))?;
     }
     // Each warning names the file (the loader's do not).
     warn_all(&loaded.warnings.iter().map(|w| format!("{}: {w}", a.mesh.display())).collect::<Vec<_>>());
