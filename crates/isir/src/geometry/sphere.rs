@@ -19,6 +19,13 @@ impl Sphere {
         Self { center, radius }
     }
 
+    /// A finite centre and a positive, finite radius: a sphere rays can meet (a negative
+    /// radius shades its centre black, or vanishes under the scene BVH).
+    #[must_use]
+    pub fn is_traceable(&self) -> bool {
+        self.center.is_finite() && self.radius.is_finite() && self.radius > 0.0
+    }
+
     /// The nearest `t` in `[t_min, t_max)` where the ray meets the sphere.
     #[must_use]
     pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<f32> {

@@ -148,9 +148,7 @@ impl Scene {
                 }
             }
             let never = match &o.geometry {
-                Geometry::Sphere(s) if !(s.center.is_finite() && s.radius.is_finite() && s.radius > 0.0) => {
-                    Some(format!("a sphere of centre {} and radius {}", s.center, s.radius))
-                }
+                Geometry::Sphere(s) if !s.is_traceable() => Some(format!("a sphere of centre {} and radius {}", s.center, s.radius)),
                 Geometry::Plane(p) if !(p.point.is_finite() && p.normal.is_finite() && (p.normal.length() - 1.0).abs() < 1e-3) => {
                     Some(format!("a plane through {} whose normal {} is not of length 1", p.point, p.normal))
                 }

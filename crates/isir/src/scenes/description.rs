@@ -160,7 +160,7 @@ impl ShapeDesc {
     /// Which of those fails, in words.
     pub fn check(&self) -> std::result::Result<(), String> {
         match self {
-            ShapeDesc::Sphere(s) if !(s.center.is_finite() && s.radius.is_finite() && s.radius > 0.0) => {
+            ShapeDesc::Sphere(s) if !s.is_traceable() => {
                 Err(format!("a sphere needs a finite centre and a positive radius, not centre {} and radius {}", s.center, s.radius))
             }
             ShapeDesc::Plane(p) if !(p.point.is_finite() && p.normal.is_finite() && p.normal.length_squared().is_normal()) => Err(format!(
